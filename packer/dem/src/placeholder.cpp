@@ -1,0 +1,1 @@
+// placeholder until the dem part lands

@@ -1,0 +1,48 @@
+#pragma once
+/// \file shape.hpp
+/// Exact particle shapes ("master shapes"). Body frame: origin at the centre of mass,
+/// symmetry axis of axisymmetric shapes along +z (a cylinder's axis is z at identity).
+/// Rotations are always applied to the exact shape, never to a voxel set.
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+
+#include "voxpack/core/bed.hpp"
+
+namespace voxpack::packer {
+
+/// An exact solid shape in its body frame (mm).
+class Shape {
+ public:
+  virtual ~Shape() = default;
+  /// Canonical spec text, e.g. "cylinder:d=5.4,l=3.8".
+  virtual std::string spec() const = 0;
+  /// Exact volume in mm^3.
+  virtual double volumeMm3() const = 0;
+  /// Exact surface area in mm^2.
+  virtual double surfaceMm2() const = 0;
+  /// Radius of the smallest origin-centred sphere containing the shape (mm).
+  virtual double boundingRadiusMm() const = 0;
+  /// Inside test of a body-frame point (mm); the boundary counts as inside.
+  virtual bool inside(const Vec3& pBodyMm) const = 0;
+  /// Signed distance (mm) of a body-frame point: < 0 inside, > 0 outside. Exact where
+  /// cheap, otherwise a conservative estimate whose sign is exact and whose magnitude is
+  /// exact within `boundingRadius * 1e-3` near the surface (used for sub-voxel overlap).
+  virtual double signedDistanceMm(const Vec3& pBodyMm) const = 0;
+  /// Outward unit normal at the surface point nearest to pBodyMm (body frame).
+  virtual Vec3 normal(const Vec3& pBodyMm) const;
+  /// Inertia tensor about the centre of mass per unit density (mm^5), body frame.
+  virtual Eigen::Matrix3d inertiaPerDensity() const = 0;
+  /// Diameter of the sphere of equal volume (mm).
+  double volumeEquivalentDiameterMm() const;
+  /// Largest extent used for "particle diameter" in statistics (mm): e.g. d for cylinders.
+  virtual double characteristicDiameterMm() const = 0;
+};
+
+/// Parses a shape SPEC (SPEC.md: sphere, cylinder, ring, box, ellipsoid, trilobe,
+/// mesh:FILE.stl[,scale=S]). Throws InputError on unknown shapes or bad sizes, IoError
+/// on unreadable mesh files.
+std::shared_ptr<const Shape> parseShape(const std::string& spec);
+
+}  // namespace voxpack::packer
