@@ -1,7 +1,328 @@
-#include "pending.hpp"
+// voxpack pack: the scene shared by both packing modes (flags merged over the TOML scene
+// file, validated), then the chosen mode's run(). The scene-file format is docs/scene.md.
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "pack_modes.hpp"
+#include "voxpack/core/atomic_file.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/spec.hpp"
+#include "voxpack/core/version.hpp"
+#include "voxpack/packer/container.hpp"
+#include "voxpack/packer/digitise.hpp"
+#include "voxpack/packer/shape.hpp"
 
 namespace voxpack::app {
-std::unique_ptr<Command> makePackCommand() {
-  return std::make_unique<PendingCommand>("pack", "pack a bed (Monte Carlo or digital DEM)");
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string where(const fs::path& file, const toml::node& node) {
+  std::ostringstream s;
+  s << file.string() << ":" << node.source().begin.line;
+  return s.str();
 }
+
+double tomlDouble(const fs::path& file, const std::string& key, const toml::node& node) {
+  const auto v = node.value<double>();
+  if (!v || !std::isfinite(*v))
+    throw InputError(where(file, node) + ": " + key + " must be a number");
+  return *v;
+}
+
+std::int64_t tomlInt(const fs::path& file, const std::string& key, const toml::node& node) {
+  const auto v = node.value<std::int64_t>();
+  if (!v) throw InputError(where(file, node) + ": " + key + " must be an integer");
+  return *v;
+}
+
+std::string tomlString(const fs::path& file, const std::string& key, const toml::node& node) {
+  const auto v = node.value<std::string>();
+  if (!v) throw InputError(where(file, node) + ": " + key + " must be a string");
+  return *v;
+}
+
+// "SPEC" or "SPEC@FRACTION": the fraction follows the last '@' (shape specs never hold
+// one, a mesh path might, so the tail must read as a number to count as a fraction).
+ShapeFraction parseShapeFraction(const std::string& text) {
+  ShapeFraction sf{text, 1.0};
+  const auto at = text.rfind('@');
+  if (at == std::string::npos) return sf;
+  const std::string tail = text.substr(at + 1);
+  char* end = nullptr;
+  const double f = std::strtod(tail.c_str(), &end);
+  if (tail.empty() || end != tail.c_str() + tail.size()) return sf;
+  if (!std::isfinite(f) || f <= 0)
+    throw InputError("--shape " + text + ": the number fraction after '@' must be > 0");
+  sf.spec = text.substr(0, at);
+  sf.fraction = f;
+  return sf;
+}
+
+class PackCommand final : public Command {
+ public:
+  PackCommand() : mc_(makeMcMode()), dem_(makeDemMode()) {}
+  std::string name() const override { return "pack"; }
+  std::string description() const override { return "pack a bed (Monte Carlo or digital DEM)"; }
+
+  void addSwitches(CLI::App& sub) override {
+    sub_ = &sub;
+    sub.add_option("--mode", mode_, "packing mode: mc (Monte Carlo) or dem (digital DEM)");
+    sub.add_option("--shape", shapes_,
+                   "particle shape SPEC; repeat for a mixture, SPEC@F gives number fraction F");
+    sub.add_option("--container", container_, "container SPEC, e.g. cylinder:d=43.3,h=60");
+    sub.add_option("--voxel-size", voxelSizeMm_, "lattice voxel size (mm)");
+    sub.add_option("--count", count_, "number of particles to pack");
+    sub.add_option("--fill-height", fillHeightMm_, "pack until the bed reaches this height (mm)");
+    sub.add_option("--seed", seed_, "random seed");
+    sub.add_option("-o,--output", output_, "output bed file (.h5)");
+    sub.add_option("--config", config_, "TOML scene file (flags win over it), see docs/scene.md");
+    sub.add_option("--supersample", supersample_,
+                   "digitisation samples per voxel axis (1..8, default 1)");
+    for (PackMode* mode : {mc_.get(), dem_.get()}) {
+      std::set<const CLI::Option*> before;
+      for (const CLI::Option* o : sub.get_options()) before.insert(o);
+      mode->addSwitches(sub);
+      for (const CLI::Option* o : sub.get_options())
+        if (!before.count(o)) owner_[o] = mode->name();
+    }
+  }
+
+  int execute(const GlobalOptions& global) override {
+    commandLine_ = global.commandLine;
+    toml::table doc;
+    if (given("--config")) doc = loadScene(config_);
+    PackScene scene = mergeScene(doc);
+    PackMode* mode = scene_mode_ == "mc" ? mc_.get() : dem_.get();
+    // A flag of the other mode would be silently meaningless here: refuse it.
+    for (const auto& [opt, owner] : owner_)
+      if (owner != mode->name() && opt->count() > 0)
+        throw UsageError(opt->get_name() + " is an option of --mode " + owner + ", not of --mode " +
+                         mode->name());
+    const toml::table* table = doc[mode->name()].as_table();
+    if (doc.contains(mode->name()) && !table)
+      throw InputError(config_.string() + ": [" + mode->name() + "] must be a table");
+    return mode->run(scene, table, *sub_, global);
+  }
+
+ private:
+  bool given(const std::string& flag) const { return sub_->get_option(flag)->count() > 0; }
+
+  toml::table loadScene(const fs::path& file) const {
+    std::error_code ec;
+    if (!fs::is_regular_file(file, ec))
+      throw IoError("--config " + file.string() + ": no such file");
+    try {
+      return toml::parse_file(file.string());
+    } catch (const toml::parse_error& e) {
+      std::ostringstream s;
+      s << file.string() << ":" << e.source().begin.line << ": " << e.description();
+      throw InputError(s.str());
+    }
+  }
+
+  PackScene mergeScene(const toml::table& doc) {
+    const fs::path& cf = config_;
+    static const std::set<std::string> known{
+        "mode",   "shape",       "container", "count", "fill_height_mm", "voxel_size_mm", "seed",
+        "output", "supersample", "mc",        "dem"};
+    for (const auto& [key, node] : doc)
+      if (!known.count(std::string(key.str())))
+        throw InputError(where(cf, node) + ": unknown key '" + std::string(key.str()) +
+                         "' (see docs/scene.md)");
+
+    PackScene s;
+    s.config = config_;
+    // Mode.
+    std::string mode = mode_;
+    if (!given("--mode") && doc.contains("mode")) mode = tomlString(cf, "mode", *doc.get("mode"));
+    if (mode.empty()) throw UsageError("--mode is required (mc or dem)");
+    if (mode != "mc" && mode != "dem")
+      throw UsageError("--mode " + mode + ": unknown mode (use mc or dem)");
+    scene_mode_ = mode;
+
+    // Shapes.
+    if (given("--shape")) {
+      for (const auto& t : shapes_) s.shapes.push_back(parseShapeFraction(t));
+    } else if (const toml::node* n = doc.get("shape")) {
+      if (n->is_string()) {
+        s.shapes.push_back(parseShapeFraction(tomlString(cf, "shape", *n)));
+      } else if (const toml::array* a = n->as_array()) {
+        for (const toml::node& e : *a) {
+          if (e.is_string()) {
+            s.shapes.push_back(parseShapeFraction(tomlString(cf, "shape", e)));
+          } else if (const toml::table* t = e.as_table()) {
+            ShapeFraction sf;
+            const toml::node* spec = t->get("spec");
+            if (!spec) throw InputError(where(cf, e) + ": a shape table needs spec = \"...\"");
+            sf.spec = tomlString(cf, "shape.spec", *spec);
+            if (const toml::node* f = t->get("fraction"))
+              sf.fraction = tomlDouble(cf, "fraction", *f);
+            for (const auto& [k, v] : *t)
+              if (k.str() != "spec" && k.str() != "fraction")
+                throw InputError(where(cf, v) + ": unknown shape key '" + std::string(k.str()) +
+                                 "'");
+            if (!(sf.fraction > 0)) throw InputError(where(cf, e) + ": fraction must be > 0");
+            s.shapes.push_back(sf);
+          } else {
+            throw InputError(where(cf, e) + ": shape entries are strings or {spec, fraction}");
+          }
+        }
+      } else {
+        throw InputError(where(cf, *n) + ": shape must be a string or an array");
+      }
+    }
+    if (s.shapes.empty()) throw UsageError("--shape is required");
+
+    // Container, voxel size, count / fill height, seed, output, supersample.
+    s.containerSpec = container_;
+    if (!given("--container") && doc.contains("container"))
+      s.containerSpec = tomlString(cf, "container", *doc.get("container"));
+    if (s.containerSpec.empty()) throw UsageError("--container is required");
+
+    std::optional<double> voxel;
+    if (given("--voxel-size"))
+      voxel = voxelSizeMm_;
+    else if (const toml::node* n = doc.get("voxel_size_mm"))
+      voxel = tomlDouble(cf, "voxel_size_mm", *n);
+    if (!voxel) throw UsageError("--voxel-size is required");
+    if (!std::isfinite(*voxel) || *voxel <= 0) throw InputError("--voxel-size must be > 0");
+    s.voxelSizeMm = *voxel;
+
+    std::optional<std::int64_t> count;
+    std::optional<double> fill;
+    if (given("--count")) count = count_;
+    if (given("--fill-height")) fill = fillHeightMm_;
+    // A flag of either kind replaces both keys of the file: the flag picks the goal.
+    if (!count && !fill) {
+      if (const toml::node* n = doc.get("count")) count = tomlInt(cf, "count", *n);
+      if (const toml::node* n = doc.get("fill_height_mm"))
+        fill = tomlDouble(cf, "fill_height_mm", *n);
+    }
+    if (count && fill) throw UsageError("give either --count or --fill-height, not both");
+    if (!count && !fill) throw UsageError("one of --count N or --fill-height MM is required");
+    if (count && *count < 1)
+      throw InputError("--count must be >= 1 (got " + std::to_string(*count) + ")");
+    if (fill && !(std::isfinite(*fill) && *fill > 0)) throw InputError("--fill-height must be > 0");
+    s.count = count.value_or(0);
+    s.fillHeightMm = fill.value_or(0.0);
+
+    if (given("--seed")) {
+      s.seed = seed_;
+    } else if (const toml::node* n = doc.get("seed")) {
+      const std::int64_t v = tomlInt(cf, "seed", *n);
+      if (v < 0) throw InputError(where(cf, *n) + ": seed must be >= 0");
+      s.seed = static_cast<std::uint64_t>(v);
+    } else {
+      throw UsageError("--seed is required");
+    }
+
+    if (given("--output"))
+      s.output = output_;
+    else if (const toml::node* n = doc.get("output"))
+      s.output = tomlString(cf, "output", *n);
+    if (s.output.empty()) throw UsageError("-o OUT.h5 is required");
+
+    s.supersample = 1;
+    if (given("--supersample"))
+      s.supersample = supersample_;
+    else if (const toml::node* n = doc.get("supersample"))
+      s.supersample = static_cast<int>(tomlInt(cf, "supersample", *n));
+    if (s.supersample < 1 || s.supersample > 8) throw InputError("--supersample must be in 1..8");
+
+    validateGeometry(s);
+    ensureWritableDirectory(s.output.has_parent_path() ? s.output.parent_path() : fs::path("."),
+                            false);
+
+    nlohmann::json shapes = nlohmann::json::array();
+    double total = 0;
+    for (const auto& sf : s.shapes) total += sf.fraction;
+    for (const auto& sf : s.shapes)
+      shapes.push_back({{"spec", sf.spec}, {"fraction", sf.fraction / total}});
+    s.provenance = {{"voxpack_version", versionString()},
+                    {"command", "pack"},
+                    {"command_line", commandLine_},
+                    {"mode", mode},
+                    {"seed", s.seed},
+                    {"scene",
+                     {{"shapes", shapes},
+                      {"container", s.containerSpec},
+                      {"voxel_size_mm", s.voxelSizeMm},
+                      {"count", s.count},
+                      {"fill_height_mm", s.fillHeightMm},
+                      {"supersample", s.supersample},
+                      {"config", s.config.empty() ? nlohmann::json(nullptr)
+                                                  : nlohmann::json(s.config.string())},
+                      {"output", s.output.string()}}}};
+    return s;
+  }
+
+  // Refuses scenes no mode can pack: particles smaller than a voxel, or a container that
+  // cannot hold one particle.
+  static void validateGeometry(PackScene& s) {
+    const auto container = packer::parseContainer(s.containerSpec);
+    s.containerSpec = container->spec();
+    const packer::BoundsMm b = container->boundsMm();
+    const Vec3 ext = b.max - b.min;
+    const double minExtent = std::min({ext.x(), ext.y(), ext.z()});
+    const Lattice unit = Lattice::isotropic(1, 1, 1, s.voxelSizeMm);
+    for (auto& sf : s.shapes) {
+      const auto shape = packer::parseShape(sf.spec);
+      sf.spec = shape->spec();
+      const double deq = shape->volumeEquivalentDiameterMm();
+      if (s.voxelSizeMm >= deq) {
+        std::ostringstream m;
+        m << "--voxel-size " << s.voxelSizeMm << " mm is not smaller than particle " << sf.spec
+          << " (volume-equivalent diameter " << deq << " mm)";
+        throw InputError(m.str());
+      }
+      const packer::DigitalParticle dp = packer::digitise(
+          *shape, Vec3::Zero(), Quat::Identity(), unit, packer::DigitiseOptions{s.supersample});
+      if (dp.voxels.empty())
+        throw InputError("particle " + sf.spec + " digitises to no voxel at --voxel-size " +
+                         std::to_string(s.voxelSizeMm) + " mm");
+      // Narrowest width of the particle at its reference pose, from its digitisation.
+      std::array<std::int32_t, 3> lo{dp.voxels[0].i, dp.voxels[0].j, dp.voxels[0].k}, hi = lo;
+      for (const auto& v : dp.voxels) {
+        lo = {std::min(lo[0], v.i), std::min(lo[1], v.j), std::min(lo[2], v.k)};
+        hi = {std::max(hi[0], v.i), std::max(hi[1], v.j), std::max(hi[2], v.k)};
+      }
+      double width = 1e300;
+      for (int a = 0; a < 3; ++a) width = std::min(width, (hi[a] - lo[a] + 1) * s.voxelSizeMm);
+      if (container->volumeMm3() < shape->volumeMm3() || minExtent < width) {
+        std::ostringstream m;
+        m << "container " << s.containerSpec << " is smaller than one particle " << sf.spec
+          << " (narrowest container extent " << minExtent << " mm, particle width " << width
+          << " mm)";
+        throw InputError(m.str());
+      }
+    }
+    if (s.fillHeightMm > ext.z() + 1e-9) {
+      std::ostringstream m;
+      m << "--fill-height " << s.fillHeightMm << " mm is above the container top (" << ext.z()
+        << " mm)";
+      throw InputError(m.str());
+    }
+  }
+
+  std::unique_ptr<PackMode> mc_, dem_;
+  std::map<const CLI::Option*, std::string> owner_;
+  CLI::App* sub_ = nullptr;
+  std::string mode_, container_, scene_mode_, commandLine_;
+  std::vector<std::string> shapes_;
+  double voxelSizeMm_ = 0, fillHeightMm_ = 0;
+  std::int64_t count_ = 0;
+  std::uint64_t seed_ = 0;
+  fs::path output_, config_;
+  int supersample_ = 1;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> makePackCommand() { return std::make_unique<PackCommand>(); }
+
 }  // namespace voxpack::app

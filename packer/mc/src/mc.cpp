@@ -1,0 +1,565 @@
+// Monte Carlo digital packing. docs/mc.md explains the walk, the settling test and the
+// choices the paper leaves open.
+#include "voxpack/packer/mc.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/random.hpp"
+#include "voxpack/packer/digitise.hpp"
+
+namespace voxpack::packer {
+
+const char* toString(McStatus status) {
+  switch (status) {
+    case McStatus::Settled:
+      return "settled";
+    case McStatus::CapReached:
+      return "cap_reached";
+    case McStatus::ContainerFull:
+      return "container_full";
+  }
+  return "unknown";
+}
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw InputError(what);
+}
+
+bool finite(double v) { return std::isfinite(v); }
+
+}  // namespace
+
+void validate(const McOptions& o) {
+  require(finite(o.voxelSizeMm) && o.voxelSizeMm > 0, "voxel size must be a positive number");
+  require(o.count >= 0, "--count must be >= 1");
+  require(finite(o.fillHeightMm) && o.fillHeightMm >= 0, "--fill-height must be > 0");
+  require((o.count > 0) != (o.fillHeightMm > 0),
+          "give exactly one of --count N (>= 1) and --fill-height MM (> 0)");
+  require(o.supersample >= 1 && o.supersample <= 8, "--supersample must be in 1..8");
+  require(finite(o.reboundProbability) && o.reboundProbability >= 0 && o.reboundProbability <= 1,
+          "--rebound-probability must be in [0, 1]");
+  require(finite(o.rotationProbability) && o.rotationProbability >= 0 && o.rotationProbability <= 1,
+          "--mc-rotation-probability must be in [0, 1]");
+  require(finite(o.maxRotationDeg) && o.maxRotationDeg > 0 && o.maxRotationDeg <= 180,
+          "--mc-max-rotation-deg must be in (0, 180]");
+  require(o.maxSweeps >= 1, "--mc-max-sweeps must be >= 1");
+  require(o.settleSweeps >= 0, "--mc-settle-sweeps must be >= 0 (0 = auto)");
+  require(finite(o.settleTolerance) && o.settleTolerance > 0 && o.settleTolerance < 1,
+          "--mc-settle-tolerance must be in (0, 1)");
+  require(finite(o.settleMaxFallDiameters) && o.settleMaxFallDiameters > 0,
+          "--mc-settle-max-fall must be > 0");
+  require(o.injectAttempts >= 1, "--mc-inject-attempts must be >= 1");
+  require(o.tapCycles >= 0, "--mc-tap-cycles must be >= 0");
+  require(finite(o.tapReboundProbability) && o.tapReboundProbability >= 0 &&
+              o.tapReboundProbability <= 1,
+          "--mc-tap-rebound-probability must be in [0, 1]");
+  require(o.tapSweeps >= 0, "--mc-tap-sweeps must be >= 0 (0 = auto)");
+}
+
+int settleWindowSweeps(const McOptions& o, double particleDiameterMm) {
+  if (o.settleSweeps > 0) return o.settleSweeps;
+  // A free particle falls ~0.28 voxel per sweep (9 of 26 directions go down, 20 % of
+  // attempts are rotations): a window of 3 d/h sweeps lets it fall ~0.8 d, well above the
+  // 0.25 d fall threshold, so a falling particle is never taken for a settled one.
+  const double k = 3.0 * particleDiameterMm / o.voxelSizeMm;
+  return static_cast<int>(std::clamp(std::ceil(k), 20.0, 1.0e6));
+}
+
+nlohmann::json toJson(const McOptions& o) {
+  return {{"voxel_size_mm", o.voxelSizeMm},
+          {"count", o.count},
+          {"fill_height_mm", o.fillHeightMm},
+          {"supersample", o.supersample},
+          {"rebound_probability", o.reboundProbability},
+          {"rotation_probability", o.rotationProbability},
+          {"max_rotation_deg", o.maxRotationDeg},
+          {"max_sweeps", o.maxSweeps},
+          {"settle_sweeps", o.settleSweeps},
+          {"settle_tolerance", o.settleTolerance},
+          {"settle_max_fall_diameters", o.settleMaxFallDiameters},
+          {"inject_attempts", o.injectAttempts},
+          {"tap_cycles", o.tapCycles},
+          {"tap_rebound_probability", o.tapReboundProbability},
+          {"tap_sweeps", o.tapSweeps}};
+}
+
+nlohmann::json toJson(const McStats& s) {
+  return {{"sweeps", s.sweeps},
+          {"tried_moves", s.triedMoves},
+          {"accepted_moves", s.acceptedMoves},
+          {"tried_rotations", s.triedRotations},
+          {"accepted_rotations", s.acceptedRotations},
+          {"batches", s.batches},
+          {"injected", s.injected},
+          {"removed", s.removed},
+          {"settle_window_sweeps", s.settleWindow},
+          {"wall_time_s", s.wallSeconds},
+          {"walk_time_s", s.walkSeconds}};
+}
+
+namespace {
+
+constexpr std::uint32_t kWall = std::numeric_limits<std::uint32_t>::max();
+// Random-stream ids: one per injected particle and one per sweep, so each random choice
+// is tied to a work item.
+constexpr std::uint64_t kInjectStream = 1ULL << 40;
+constexpr std::uint64_t kSweepStream = 2ULL << 40;
+
+// A particle on the label lattice. Voxel lists are linear lattice offsets taken at the
+// last digitisation; `base` adds the translation since then (a pure lattice shift, so the
+// lists stay exact without touching them).
+struct Particle {
+  int component = 0;
+  Vec3 centreMm = Vec3::Zero();         // centre of mass at the last digitisation
+  Quat q = Quat::Identity();            // orientation (body -> world)
+  std::array<std::int64_t, 3> shift{};  // (k, j, i) voxel steps since the last digitisation
+  std::int64_t base = 0;                // linear offset of `shift`
+  std::vector<std::int64_t> voxels;     // all voxels
+  std::array<std::vector<std::int64_t>, 6> faces;  // surface voxels out-facing -x,+x,..,+z
+  bool alive = true;
+};
+
+class McPacker {
+ public:
+  McPacker(const std::vector<MixtureComponent>& mixture, const Container& container,
+           const McOptions& options, std::uint64_t seed, Progress& progress)
+      : mixture_(mixture), container_(container), o_(options), seed_(seed), progress_(progress) {}
+
+  McResult run();
+
+ private:
+  Vec3 centreOf(const Particle& p) const {
+    const double h = o_.voxelSizeMm;
+    return p.centreMm + Vec3(static_cast<double>(p.shift[2]) * h,
+                             static_cast<double>(p.shift[1]) * h,
+                             static_cast<double>(p.shift[0]) * h);
+  }
+  std::uint32_t idOf(std::size_t index) const { return static_cast<std::uint32_t>(index + 1); }
+
+  bool digitiseFree(int component, const Vec3& c, const Quat& q, std::uint32_t id,
+                    DigitalParticle& out) const;
+  void adopt(Particle& p, const DigitalParticle& dp, const Vec3& c, const Quat& q) const;
+  void writeLabels(const Particle& p, std::uint32_t value);
+  bool stepFree(const Particle& p, int axis, int sign) const;
+  void applyStep(Particle& p, std::uint32_t id, int axis, int sign);
+  void attemptMove(std::size_t index, RandomStream& rng, double pr);
+  void sweep(double pr);
+  McStatus settle(double pr);
+  std::int64_t injectBatch();
+  int nextComponent();
+  double highestCentreZ() const;
+  void checkCancelled() const;
+  void report();
+  Bed buildBed() const;
+
+  const std::vector<MixtureComponent>& mixture_;
+  const Container& container_;
+  McOptions o_;
+  std::uint64_t seed_;
+  Progress& progress_;
+
+  Lattice lattice_;
+  Grid<std::uint8_t> mask_;
+  std::vector<std::uint32_t> labels_;
+  std::array<std::int64_t, 3> stride_{};  // linear stride of axis x, y, z
+  std::vector<Particle> particles_;
+  std::vector<double> fractions_;
+  std::vector<std::int64_t> assigned_;
+  BoundsMm bounds_;
+  double diameterMm_ = 0;  // largest characteristic diameter of the mixture
+  double maxBoundingMm_ = 0;
+  int window_ = 20;
+  McStats stats_;
+};
+
+bool McPacker::digitiseFree(int component, const Vec3& c, const Quat& q, std::uint32_t id,
+                            DigitalParticle& out) const {
+  out = digitise(*mixture_[static_cast<std::size_t>(component)].shape, c, q, lattice_,
+                 DigitiseOptions{o_.supersample});
+  if (out.voxels.empty()) return false;
+  for (const Voxel& v : out.voxels) {
+    // The outermost lattice layer is wall, so every particle voxel keeps all 26
+    // neighbours inside the lattice and the step tests need no bounds checks.
+    if (v.k < 1 || v.j < 1 || v.i < 1 || v.k >= lattice_.nz() - 1 || v.j >= lattice_.ny() - 1 ||
+        v.i >= lattice_.nx() - 1)
+      return false;
+    const std::uint32_t l = labels_[lattice_.offset(v.k, v.j, v.i)];
+    if (l != 0 && l != id) return false;
+  }
+  return true;
+}
+
+void McPacker::adopt(Particle& p, const DigitalParticle& dp, const Vec3& c, const Quat& q) const {
+  p.centreMm = c;
+  p.q = q;
+  p.shift = {0, 0, 0};
+  p.base = 0;
+  p.voxels.resize(dp.voxels.size());
+  for (std::size_t n = 0; n < dp.voxels.size(); ++n) {
+    const Voxel& v = dp.voxels[n];
+    p.voxels[n] = static_cast<std::int64_t>(lattice_.offset(v.k, v.j, v.i));
+  }
+  for (auto& f : p.faces) f.clear();
+  for (std::size_t s = 0; s < dp.surface.size(); ++s) {
+    const std::int64_t off = p.voxels[dp.surface[s]];
+    const std::uint8_t bits = dp.surfaceFaces[s];
+    for (int f = 0; f < 6; ++f)
+      if (bits & (1u << f)) p.faces[static_cast<std::size_t>(f)].push_back(off);
+  }
+}
+
+void McPacker::writeLabels(const Particle& p, std::uint32_t value) {
+  for (const std::int64_t off : p.voxels) labels_[static_cast<std::size_t>(p.base + off)] = value;
+}
+
+// Only the leading surface (voxels whose face in the step direction is out-facing) can
+// meet something new: their neighbours across that face are the voxels the step adds.
+bool McPacker::stepFree(const Particle& p, int axis, int sign) const {
+  const auto& lead = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 1 : 0))];
+  const std::int64_t d = p.base + sign * stride_[static_cast<std::size_t>(axis)];
+  for (const std::int64_t off : lead)
+    if (labels_[static_cast<std::size_t>(off + d)] != 0) return false;
+  return true;
+}
+
+void McPacker::applyStep(Particle& p, std::uint32_t id, int axis, int sign) {
+  const auto& lead = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 1 : 0))];
+  const auto& trail = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 0 : 1))];
+  const std::int64_t step = sign * stride_[static_cast<std::size_t>(axis)];
+  for (const std::int64_t off : lead) labels_[static_cast<std::size_t>(p.base + off + step)] = id;
+  for (const std::int64_t off : trail) labels_[static_cast<std::size_t>(p.base + off)] = 0;
+  p.base += step;
+  p.shift[static_cast<std::size_t>(2 - axis)] += sign;  // shift is (k, j, i); axis 0 is x
+}
+
+void McPacker::attemptMove(std::size_t index, RandomStream& rng, double pr) {
+  Particle& p = particles_[index];
+  const std::uint32_t id = idOf(index);
+  if (rng.uniform() < o_.rotationProbability) {
+    ++stats_.triedRotations;
+    Vec3 axis(rng.normal(), rng.normal(), rng.normal());
+    const double n = axis.norm();
+    if (n < 1e-12) return;
+    const double maxRad = o_.maxRotationDeg * std::numbers::pi / 180.0;
+    const double angle = rng.uniform(-maxRad, maxRad);
+    // Rotate the exact shape about its centre of mass and digitise it again: a voxel set
+    // is never rotated (its volume would drift).
+    const Quat q = (Quat(Eigen::AngleAxisd(angle, axis / n)) * p.q).normalized();
+    const Vec3 c = centreOf(p);
+    DigitalParticle dp;
+    if (!digitiseFree(p.component, c, q, id, dp)) return;
+    writeLabels(p, 0);
+    adopt(p, dp, c, q);
+    writeLabels(p, id);
+    ++stats_.acceptedRotations;
+    return;
+  }
+  ++stats_.triedMoves;
+  // The 26 directions, (dx, dy, dz) each in {-1, 0, 1}, not all 0.
+  int d = static_cast<int>(rng.below(26));
+  if (d >= 13) ++d;  // skip the centre of the 3x3x3 block
+  const std::array<int, 3> dir{d % 3 - 1, (d / 3) % 3 - 1, d / 9 - 1};
+  if (dir[2] > 0 && !(rng.uniform() < pr)) return;  // upward: only with the rebound prob.
+  std::array<int, 3> order{0, 1, 2};
+  // A diagonal is 2-3 unit steps; their order is random so no axis is favoured.
+  for (int a = 2; a > 0; --a)
+    std::swap(order[static_cast<std::size_t>(a)],
+              order[static_cast<std::size_t>(rng.below(static_cast<std::uint64_t>(a + 1)))]);
+  std::array<int, 3> done{};
+  int nDone = 0;
+  for (const int axis : order) {
+    const int sign = dir[static_cast<std::size_t>(axis)];
+    if (sign == 0) continue;
+    if (!stepFree(p, axis, sign)) {
+      for (int u = nDone - 1; u >= 0; --u) {
+        const int a = done[static_cast<std::size_t>(u)];
+        applyStep(p, id, a, -dir[static_cast<std::size_t>(a)]);
+      }
+      return;
+    }
+    applyStep(p, id, axis, sign);
+    done[static_cast<std::size_t>(nDone++)] = axis;
+  }
+  ++stats_.acceptedMoves;
+}
+
+void McPacker::sweep(double pr) {
+  RandomStream rng(seed_, kSweepStream + static_cast<std::uint64_t>(stats_.sweeps));
+  std::vector<std::size_t> order;
+  order.reserve(particles_.size());
+  for (std::size_t n = 0; n < particles_.size(); ++n)
+    if (particles_[n].alive) order.push_back(n);
+  std::shuffle(order.begin(), order.end(), rng);
+  for (const std::size_t n : order) attemptMove(n, rng, pr);
+  ++stats_.sweeps;
+}
+
+void McPacker::checkCancelled() const {
+  if (progress_.cancelled()) throw Cancelled("Monte Carlo packing stopped");
+}
+
+void McPacker::report() {
+  double f = 0;
+  if (o_.count > 0)
+    f = static_cast<double>(stats_.injected) / static_cast<double>(o_.count);
+  else
+    f = (highestCentreZ() - bounds_.min.z()) / o_.fillHeightMm;
+  f = std::max(f, static_cast<double>(stats_.sweeps) / static_cast<double>(o_.maxSweeps));
+  progress_.report("mc packing", std::clamp(f, 0.0, 1.0));
+}
+
+// Settled when, between two consecutive windows of K sweeps, (a) the mean particle height
+// above the floor falls by less than tol * that height and (b) no particle's window-mean
+// height falls by more than settleMaxFallDiameters * d. (a) alone misses a few particles
+// still falling onto a large bed; (b) alone never ends under rattling at high p_r.
+McStatus McPacker::settle(double pr) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t n = particles_.size();
+  if (n == 0) return McStatus::Settled;
+  std::vector<double> sum(n, 0.0), prev(n, 0.0);
+  bool havePrev = false;
+  double prevMean = 0;
+  int inWindow = 0;
+  McStatus status = McStatus::CapReached;
+  while (stats_.sweeps < o_.maxSweeps) {
+    checkCancelled();
+    sweep(pr);
+    for (std::size_t p = 0; p < n; ++p)
+      if (particles_[p].alive) sum[p] += centreOf(particles_[p]).z() - bounds_.min.z();
+    if (++inWindow < window_) continue;
+    double mean = 0, maxFall = 0;
+    std::size_t alive = 0;
+    for (std::size_t p = 0; p < n; ++p) {
+      if (!particles_[p].alive) continue;
+      sum[p] /= window_;
+      mean += sum[p];
+      ++alive;
+      if (havePrev) maxFall = std::max(maxFall, prev[p] - sum[p]);
+    }
+    mean /= static_cast<double>(std::max<std::size_t>(alive, 1));
+    report();
+    if (havePrev && prevMean - mean < o_.settleTolerance * prevMean &&
+        maxFall <= o_.settleMaxFallDiameters * diameterMm_) {
+      status = McStatus::Settled;
+      break;
+    }
+    havePrev = true;
+    prevMean = mean;
+    prev.swap(sum);
+    std::fill(sum.begin(), sum.end(), 0.0);
+    inWindow = 0;
+  }
+  stats_.walkSeconds +=
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return status;
+}
+
+// Largest-remainder quota: particle n takes the component furthest behind its share, so
+// every prefix of the sequence follows the number fractions (exact for count mode).
+int McPacker::nextComponent() {
+  const double next = static_cast<double>(stats_.injected + 1);
+  int best = 0;
+  double bestLag = -std::numeric_limits<double>::infinity();
+  for (std::size_t c = 0; c < fractions_.size(); ++c) {
+    const double lag = fractions_[c] * next - static_cast<double>(assigned_[c]);
+    if (lag > bestLag + 1e-12) {
+      bestLag = lag;
+      best = static_cast<int>(c);
+    }
+  }
+  return best;
+}
+
+double McPacker::highestCentreZ() const {
+  double z = bounds_.min.z();
+  for (const Particle& p : particles_)
+    if (p.alive) z = std::max(z, centreOf(p).z());
+  return z;
+}
+
+// Injects particles at random free poses above the highest particle centre until the
+// target is met or one particle finds no free pose in injectAttempts tries.
+std::int64_t McPacker::injectBatch() {
+  ++stats_.batches;
+  const double zLow = highestCentreZ();
+  double zHigh = bounds_.max.z();
+  if (o_.fillHeightMm > 0)
+    zHigh = std::min(zHigh, bounds_.min.z() + o_.fillHeightMm + 2.0 * maxBoundingMm_);
+  zHigh = std::max(zHigh, zLow);
+  std::int64_t added = 0;
+  DigitalParticle dp;
+  while (o_.count == 0 || stats_.injected < o_.count) {
+    checkCancelled();
+    const int component = nextComponent();
+    const std::size_t index = particles_.size();
+    const std::uint32_t id = idOf(index);
+    RandomStream rng(seed_, kInjectStream + index);
+    bool placed = false;
+    for (int a = 0; a < o_.injectAttempts && !placed; ++a) {
+      const Vec3 c(rng.uniform(bounds_.min.x(), bounds_.max.x()),
+                   rng.uniform(bounds_.min.y(), bounds_.max.y()),
+                   zLow + (zHigh - zLow) * rng.uniform());
+      // Uniform random orientation (Shoemake's method).
+      const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
+      const double twoPi = 2.0 * std::numbers::pi;
+      const Quat q(std::sqrt(u1) * std::cos(twoPi * u3), std::sqrt(1 - u1) * std::sin(twoPi * u2),
+                   std::sqrt(1 - u1) * std::cos(twoPi * u2), std::sqrt(u1) * std::sin(twoPi * u3));
+      // Cheap pre-test of the centre voxel before a full digitisation.
+      const Index3 ci = lattice_.nearestIndex(c);
+      if (!lattice_.contains(ci.k, ci.j, ci.i) || labels_[lattice_.offset(ci.k, ci.j, ci.i)] != 0)
+        continue;
+      if (!digitiseFree(component, c, q, id, dp)) continue;
+      Particle p;
+      p.component = component;
+      adopt(p, dp, c, q.normalized());
+      particles_.push_back(std::move(p));
+      writeLabels(particles_.back(), id);
+      placed = true;
+    }
+    if (!placed) break;
+    ++assigned_[static_cast<std::size_t>(component)];
+    ++stats_.injected;
+    ++added;
+    if (particles_.size() >= kWall - 1) throw InputError("too many particles for 32-bit labels");
+  }
+  report();
+  return added;
+}
+
+Bed McPacker::buildBed() const {
+  Bed bed;
+  bed.indicator = Grid<std::uint8_t>(lattice_, 1);
+  Grid<std::uint32_t> labels(lattice_, 0);
+  std::uint32_t next = 0;
+  for (const Particle& p : particles_) {
+    if (!p.alive) continue;
+    ++next;
+    for (const std::int64_t off : p.voxels) {
+      const auto o = static_cast<std::size_t>(p.base + off);
+      if (labels[o] != 0 || mask_[o] == 0)
+        throw InternalError("Monte Carlo packer: overlapping or uncontained particle voxel");
+      labels[o] = next;
+      bed.indicator[o] = 0;
+    }
+    bed.particles.positionMm.push_back(centreOf(p));
+    bed.particles.orientation.push_back(p.q);
+    bed.particles.shape.push_back(mixture_[static_cast<std::size_t>(p.component)].shape->spec());
+  }
+  bed.mask = mask_;
+  bed.labels = std::move(labels);
+  return bed;
+}
+
+McResult McPacker::run() {
+  const auto t0 = std::chrono::steady_clock::now();
+  validate(o_);
+  if (mixture_.empty()) throw InputError("no particle shape given");
+  double total = 0;
+  for (const auto& m : mixture_) {
+    if (!m.shape) throw InputError("null particle shape");
+    require(finite(m.fraction) && m.fraction > 0, "shape fractions must be > 0");
+    total += m.fraction;
+    diameterMm_ = std::max(diameterMm_, m.shape->characteristicDiameterMm());
+    maxBoundingMm_ = std::max(maxBoundingMm_, m.shape->boundingRadiusMm());
+  }
+  for (const auto& m : mixture_) fractions_.push_back(m.fraction / total);
+  assigned_.assign(mixture_.size(), 0);
+  window_ = settleWindowSweeps(o_, diameterMm_);
+  stats_.settleWindow = window_;
+
+  bounds_ = container_.boundsMm();
+  if (o_.fillHeightMm > 0 && o_.fillHeightMm > bounds_.max.z() - bounds_.min.z() + 1e-9)
+    throw InputError("--fill-height " + std::to_string(o_.fillHeightMm) +
+                     " mm is above the container top");
+  lattice_ = latticeForContainer(container_, o_.voxelSizeMm, 1);
+  mask_ = containerMask(container_, lattice_, o_.supersample);
+  labels_.assign(lattice_.size(), 0);
+  stride_ = {1, lattice_.nx(), lattice_.nx() * lattice_.ny()};
+  for (std::int64_t k = 0; k < lattice_.nz(); ++k)
+    for (std::int64_t j = 0; j < lattice_.ny(); ++j)
+      for (std::int64_t i = 0; i < lattice_.nx(); ++i) {
+        const bool border = k == 0 || j == 0 || i == 0 || k == lattice_.nz() - 1 ||
+                            j == lattice_.ny() - 1 || i == lattice_.nx() - 1;
+        const std::size_t off = lattice_.offset(k, j, i);
+        if (border || mask_[off] == 0) labels_[off] = kWall;
+        if (border) mask_[off] = 0;
+      }
+  // A shape too small for the voxel digitises to nothing: refuse instead of packing void.
+  for (const auto& m : mixture_) {
+    const DigitalParticle dp = digitise(*m.shape, Vec3::Zero(), Quat::Identity(), lattice_,
+                                        DigitiseOptions{o_.supersample});
+    if (dp.voxels.empty())
+      throw InputError("particle " + m.shape->spec() + " digitises to no voxel at voxel size " +
+                       std::to_string(o_.voxelSizeMm) + " mm");
+  }
+
+  McStatus status = McStatus::Settled;
+  bool full = false;
+  for (;;) {
+    if (injectBatch() == 0) {
+      full = true;  // the previous settle's status stands
+      break;
+    }
+    status = settle(o_.reboundProbability);
+    if (status == McStatus::CapReached) break;
+    if (o_.count > 0 && stats_.injected >= o_.count) break;
+    if (o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= o_.fillHeightMm) break;
+  }
+  if (full && status == McStatus::Settled) {
+    // In fill mode a full container at the fill height is success, not a shortfall.
+    const bool reached =
+        o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= o_.fillHeightMm - 1e-9;
+    status = reached ? McStatus::Settled : McStatus::ContainerFull;
+  }
+  const int tapSweeps = o_.tapSweeps > 0 ? o_.tapSweeps : window_;
+  for (int t = 0; t < o_.tapCycles && status != McStatus::CapReached; ++t) {
+    // A tap: a phase of raised rebound probability loosens the bed, then it settles again.
+    const auto tt = std::chrono::steady_clock::now();
+    for (int s = 0; s < tapSweeps && stats_.sweeps < o_.maxSweeps; ++s) {
+      checkCancelled();
+      sweep(o_.tapReboundProbability);
+    }
+    stats_.walkSeconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
+    const McStatus s = settle(o_.reboundProbability);
+    if (s == McStatus::CapReached) status = s;
+  }
+  if (o_.fillHeightMm > 0) {
+    const double zMax = bounds_.min.z() + o_.fillHeightMm;
+    for (Particle& p : particles_)
+      if (p.alive && centreOf(p).z() > zMax) {
+        p.alive = false;
+        ++stats_.removed;
+      }
+  }
+
+  McResult result;
+  result.status = status;
+  result.bed = buildBed();
+  stats_.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.stats = stats_;
+  result.bed.provenance["mc"] = {
+      {"options", toJson(o_)}, {"stats", toJson(stats_)}, {"status", toString(status)}};
+  progress_.report("mc packing", 1.0);
+  return result;
+}
+
+}  // namespace
+
+McResult packMonteCarlo(const std::vector<MixtureComponent>& mixture, const Container& container,
+                        const McOptions& options, std::uint64_t seed, Progress& progress) {
+  McPacker packer(mixture, container, options, seed, progress);
+  return packer.run();
+}
+
+}  // namespace voxpack::packer
