@@ -1,0 +1,346 @@
+#include "voxpack/compare/compare.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/json_util.hpp"
+
+namespace voxpack::compare {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A JSON number array as doubles; null (NaN written by json_util) stays NaN.
+std::vector<double> numbers(const nlohmann::json& obj, const char* key) {
+  std::vector<double> v;
+  if (!obj.is_object()) return v;
+  const auto it = obj.find(key);
+  if (it == obj.end() || !it->is_array()) return v;
+  v.reserve(it->size());
+  for (const auto& e : *it) v.push_back(e.is_number() ? e.get<double>() : kNaN);
+  return v;
+}
+
+double number(const nlohmann::json& obj, const char* key) {
+  if (!obj.is_object()) return kNaN;
+  const auto it = obj.find(key);
+  return (it != obj.end() && it->is_number()) ? it->get<double>() : kNaN;
+}
+
+const nlohmann::json& block(const nlohmann::json& stats, const char* key) {
+  static const nlohmann::json empty = nlohmann::json::object();
+  if (!stats.is_object()) return empty;
+  const auto it = stats.find(key);
+  return (it != stats.end() && it->is_object()) ? *it : empty;
+}
+
+// Slice densities that enter the axial mean/std: stats marks the slices it kept after
+// trimming the bed ends (axial.used or a z range); otherwise all finite slices.
+std::vector<double> axialSample(const nlohmann::json& axial) {
+  const std::vector<double> z = numbers(axial, "z_mm");
+  const std::vector<double> d = numbers(axial, "density");
+  std::vector<double> used = numbers(axial, "used");
+  double from = -std::numeric_limits<double>::infinity();
+  double to = std::numeric_limits<double>::infinity();
+  for (const char* key : {"z_range_mm", "trimmed_range_mm", "range_mm"}) {
+    const std::vector<double> r = numbers(axial, key);
+    if (r.size() == 2 && std::isfinite(r[0]) && std::isfinite(r[1])) {
+      from = r[0];
+      to = r[1];
+      break;
+    }
+  }
+  std::vector<double> out;
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    if (!std::isfinite(d[k])) continue;
+    if (used.size() == d.size() && !(used[k] > 0.5)) continue;
+    if (k < z.size() && std::isfinite(z[k]) && (z[k] < from || z[k] > to)) continue;
+    out.push_back(d[k]);
+  }
+  return out;
+}
+
+double meanDensity(const nlohmann::json& stats) {
+  const double m = number(block(stats, "axial"), "mean");
+  return std::isfinite(m) ? m : number(stats, "packing_density");
+}
+
+}  // namespace
+
+std::vector<double> wallDistanceMm(const nlohmann::json& radial) {
+  std::vector<double> w = numbers(radial, "wall_distance_mm");
+  const std::vector<double> r = numbers(radial, "r_mm");
+  if (w.size() == r.size() && !w.empty()) return w;
+  const double radius = number(radial, "radius_mm");
+  w.assign(r.size(), kNaN);
+  if (std::isfinite(radius))
+    for (std::size_t k = 0; k < r.size(); ++k) w[k] = radius - r[k];
+  return w;
+}
+
+Distances computeDistances(const nlohmann::json& referenceStats,
+                           const nlohmann::json& candidateStats, const CompareOptions& options) {
+  Distances d;
+  const auto& ra = block(referenceStats, "axial");
+  const auto& ca = block(candidateStats, "axial");
+  const double refMean = meanDensity(referenceStats);
+  d.densityMean = meanDensity(candidateStats);
+  d.densityStd = number(ca, "std");
+  d.densityRelDiff = (refMean > 0.0) ? (d.densityMean - refMean) / refMean : kNaN;
+  if (d.densityMean == refMean) d.densityRelDiff = 0.0;  // exact zero on self-comparison
+  d.axialKs = ksTwoSample(axialSample(ra), axialSample(ca), options.ks);
+
+  const auto& rr = block(referenceStats, "radial");
+  const auto& cr = block(candidateStats, "radial");
+  d.radial = curveRmse(sortedCurve(wallDistanceMm(rr), numbers(rr, "density")),
+                       sortedCurve(wallDistanceMm(cr), numbers(cr, "density")), options.radialGrid);
+
+  const auto& rs = block(referenceStats, "s2");
+  const auto& cs = block(candidateStats, "s2");
+  d.s2 = curveRmse(sortedCurve(numbers(rs, "h_mm"), numbers(rs, "s2")),
+                   sortedCurve(numbers(cs, "h_mm"), numbers(cs, "s2")), options.s2Grid);
+
+  const auto& rm = block(referenceStats, "mes");
+  const auto& cm = block(candidateStats, "mes");
+  d.mesKs = distributionKs(numbers(rm, "bins_mm"), numbers(rm, "pdf"), numbers(cm, "bins_mm"),
+                           numbers(cm, "pdf"));
+  return d;
+}
+
+nlohmann::json distancesToJson(const std::string& name, const Distances& d) {
+  nlohmann::json j;
+  j["name"] = name;
+  j["density_mean"] = finiteOrNull(d.densityMean);
+  j["density_std"] = finiteOrNull(d.densityStd);
+  j["density_rel_diff"] = finiteOrNull(d.densityRelDiff);
+  j["axial_ks_p"] = finiteOrNull(d.axialKs.pValue);
+  j["radial_rmse"] = finiteOrNull(d.radial.rmse);
+  j["s2_rmse"] = finiteOrNull(d.s2.rmse);
+  j["mes_ks"] = finiteOrNull(d.mesKs);
+  j["details"] = {
+      {"axial_ks_statistic", finiteOrNull(d.axialKs.statistic)},
+      {"axial_ks_method", ksMethodName(d.axialKs.method)},
+      {"radial_grid_mm",
+       {{"from", finiteOrNull(d.radial.fromMm)},
+        {"to", finiteOrNull(d.radial.toMm)},
+        {"step", finiteOrNull(d.radial.stepMm)},
+        {"points", d.radial.points}}},
+      {"s2_grid_mm",
+       {{"from", finiteOrNull(d.s2.fromMm)},
+        {"to", finiteOrNull(d.s2.toMm)},
+        {"step", finiteOrNull(d.s2.stepMm)},
+        {"points", d.s2.points}}},
+  };
+  return j;
+}
+
+Image2D shadowImage(const Bed& bed) {
+  const Lattice& l = bed.lattice();
+  Image2D img;
+  img.rows = l.nz();
+  img.cols = l.nx();
+  img.rowAxis = "z";
+  img.colAxis = "x";
+  img.rowFromMm = l.originMm[0];
+  img.rowToMm = l.originMm[0] + static_cast<double>(l.nz() - 1) * l.spacingMm[0];
+  img.colFromMm = l.originMm[2];
+  img.colToMm = l.originMm[2] + static_cast<double>(l.nx() - 1) * l.spacingMm[2];
+  img.values.assign(static_cast<std::size_t>(img.rows * img.cols), kNaN);
+  std::vector<std::int64_t> solid(static_cast<std::size_t>(l.nx()));
+  std::vector<std::int64_t> count(static_cast<std::size_t>(l.nx()));
+  for (std::int64_t k = 0; k < l.nz(); ++k) {
+    std::fill(solid.begin(), solid.end(), 0);
+    std::fill(count.begin(), count.end(), 0);
+    for (std::int64_t j = 0; j < l.ny(); ++j) {
+      const std::size_t row = l.offset(k, j, 0);
+      for (std::int64_t i = 0; i < l.nx(); ++i) {
+        const auto off = row + static_cast<std::size_t>(i);
+        if (bed.mask && (*bed.mask)[off] == 0) continue;
+        ++count[static_cast<std::size_t>(i)];
+        if (bed.indicator[off] == 0) ++solid[static_cast<std::size_t>(i)];
+      }
+    }
+    for (std::int64_t i = 0; i < l.nx(); ++i) {
+      const auto c = count[static_cast<std::size_t>(i)];
+      if (c > 0)
+        img.values[static_cast<std::size_t>(k * img.cols + i)] =
+            static_cast<double>(solid[static_cast<std::size_t>(i)]) / static_cast<double>(c);
+    }
+  }
+  return img;
+}
+
+Image2D voidSlice(const Bed& bed) {
+  const Lattice& l = bed.lattice();
+  std::int64_t kLo = -1, kHi = -1;
+  for (std::int64_t k = 0; k < l.nz(); ++k) {
+    bool any = !bed.mask.has_value();
+    if (!any) {
+      const std::size_t base = l.offset(k, 0, 0);
+      const std::size_t n = static_cast<std::size_t>(l.ny() * l.nx());
+      for (std::size_t o = 0; o < n && !any; ++o) any = (*bed.mask)[base + o] != 0;
+    }
+    if (any) {
+      if (kLo < 0) kLo = k;
+      kHi = k;
+    }
+  }
+  const std::int64_t k = (kLo < 0) ? l.nz() / 2 : (kLo + kHi) / 2;
+  Image2D img;
+  img.rows = l.ny();
+  img.cols = l.nx();
+  img.rowAxis = "y";
+  img.colAxis = "x";
+  img.rowFromMm = l.originMm[1];
+  img.rowToMm = l.originMm[1] + static_cast<double>(l.ny() - 1) * l.spacingMm[1];
+  img.colFromMm = l.originMm[2];
+  img.colToMm = l.originMm[2] + static_cast<double>(l.nx() - 1) * l.spacingMm[2];
+  img.values.assign(static_cast<std::size_t>(img.rows * img.cols), kNaN);
+  for (std::int64_t j = 0; j < l.ny(); ++j)
+    for (std::int64_t i = 0; i < l.nx(); ++i) {
+      const std::size_t off = l.offset(k, j, i);
+      if (bed.mask && (*bed.mask)[off] == 0) continue;
+      img.values[static_cast<std::size_t>(j * img.cols + i)] = bed.indicator[off] ? 1.0 : 0.0;
+    }
+  return img;
+}
+
+namespace {
+
+void collectStrings(const nlohmann::json& j, std::vector<std::string>& out) {
+  if (j.is_string()) {
+    out.push_back(j.get<std::string>());
+  } else if (j.is_structured()) {
+    for (const auto& e : j) collectStrings(e, out);
+  }
+}
+
+bool hasSyntheticFlag(const nlohmann::json& j) {
+  if (j.is_object()) {
+    const auto it = j.find("synthetic");
+    if (it != j.end() && it->is_boolean() && it->get<bool>()) return true;
+  }
+  if (j.is_structured())
+    for (const auto& e : j)
+      if (hasSyntheticFlag(e)) return true;
+  return false;
+}
+
+bool contains(const std::string& s, const char* w) { return s.find(w) != std::string::npos; }
+
+// The first bytes of an image file named in the provenance: enough for an NRRD/MHA text
+// header, which `voxpack phantom` marks.
+std::string headerTextOfInputs(const nlohmann::json& provenance) {
+  std::vector<std::string> strings;
+  collectStrings(provenance, strings);
+  std::string text;
+  for (const auto& s : strings) {
+    if (s.size() > 4096 || s.find('\n') != std::string::npos) continue;
+    std::error_code ec;
+    const std::filesystem::path p(s);
+    if (!std::filesystem::is_regular_file(p, ec) || p.extension() == ".h5") continue;
+    std::ifstream f(p, std::ios::binary);
+    std::string buf(16384, '\0');
+    f.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    buf.resize(static_cast<std::size_t>(f.gcount()));
+    text += buf;
+  }
+  return text;
+}
+
+std::string uniqueName(const std::filesystem::path& p,
+                       const std::vector<std::filesystem::path>& all) {
+  const std::string stem = p.stem().string();
+  int same = 0;
+  for (const auto& q : all)
+    if (q.stem().string() == stem) ++same;
+  if (same <= 1) return stem;
+  const std::string parent = p.parent_path().filename().string();
+  return parent.empty() ? stem : parent + "/" + stem;
+}
+
+}  // namespace
+
+BedOrigin classifyOrigin(const nlohmann::json& provenance, const std::string& inputHeaderText) {
+  BedOrigin o;
+  const std::string all = provenance.dump();
+  const bool phantom = hasSyntheticFlag(provenance) || contains(all, "phantom") ||
+                       contains(inputHeaderText, "voxpack phantom") ||
+                       contains(inputHeaderText, "synthetic");
+  std::string command;
+  if (provenance.is_object()) {
+    for (const char* key : {"command_line", "command", "commandLine"}) {
+      const auto it = provenance.find(key);
+      if (it != provenance.end() && it->is_string()) {
+        command = it->get<std::string>();
+        break;
+      }
+    }
+  }
+  if (contains(command, " ingest") || contains(all, "\"ingest\"")) {
+    o.kind = phantom ? "synthetic image" : "imaged";
+    o.detail = phantom ? "ingest of a voxpack phantom" : "ingest";
+    o.synthetic = phantom;
+  } else if (contains(command, " pack") || contains(all, "\"pack\"")) {
+    o.kind = "simulated";
+    o.detail = contains(command, "dem") || contains(all, "\"dem\"") ? "pack --mode dem"
+               : contains(command, "mc") || contains(all, "\"mc\"") ? "pack --mode mc"
+                                                                    : "pack";
+    o.synthetic = true;
+  } else if (phantom) {
+    o.kind = "synthetic image";
+    o.detail = "phantom";
+    o.synthetic = true;
+  } else {
+    o.kind = "unknown";
+    o.detail = "no provenance";
+    o.synthetic = false;
+  }
+  return o;
+}
+
+Comparison compareBedFiles(const std::filesystem::path& reference,
+                           const std::vector<std::filesystem::path>& candidates,
+                           const CompareOptions& options, Progress& progress) {
+  if (candidates.empty()) throw InputError("compare: no candidate bed given");
+  std::vector<std::filesystem::path> all{reference};
+  all.insert(all.end(), candidates.begin(), candidates.end());
+  Comparison c;
+  auto load = [&](const std::filesystem::path& p, std::size_t index) {
+    progress.report("compare: statistics of " + p.filename().string(),
+                    static_cast<double>(index) / static_cast<double>(all.size()));
+    const Bed bed = readBed(p);
+    BedEntry e;
+    e.name = uniqueName(p, all);
+    e.path = p;
+    e.spacingMm = bed.lattice().spacingMm;
+    e.origin = classifyOrigin(bed.provenance, headerTextOfInputs(bed.provenance));
+    e.stats = stats::computeStats(bed, options.stats, progress);
+    e.shadow = shadowImage(bed);
+    e.slice = voidSlice(bed);
+    return e;
+  };
+  c.reference = load(reference, 0);
+  for (std::size_t n = 0; n < candidates.size(); ++n) {
+    c.candidates.push_back(load(candidates[n], n + 1));
+    c.distances.push_back(computeDistances(c.reference.stats, c.candidates.back().stats, options));
+  }
+  std::vector<const BedEntry*> entries{&c.reference};
+  for (const auto& e : c.candidates) entries.push_back(&e);
+  const std::pair<const char*, const char*> required[] = {
+      {"axial", "density"}, {"radial", "density"}, {"s2", "s2"}, {"mes", "pdf"}};
+  for (const auto& [key, field] : required)
+    for (const auto* e : entries)
+      if (!block(e->stats, key).contains(field))
+        c.warnings.push_back(std::string("no ") + key + " statistics for " + e->name +
+                             ": its distances are null");
+  progress.report("compare: statistics", 1.0);
+  return c;
+}
+
+}  // namespace voxpack::compare
