@@ -1,0 +1,223 @@
+#pragma once
+/// \file dem.hpp
+/// Digital DEM packer (method paper §2.2, eq. 1): spring-dashpot forces per out-facing
+/// voxel face of each particle's digitised surface, summed into force and torque about the
+/// centre of mass; Newton-Euler motion with quaternions in principal axes.
+///
+/// Units inside and outside: mm, g, s (force g*mm/s^2 = 1e-6 N). Doubles throughout: the
+/// overlaps (~1e-3 mm) sit on coordinates of ~1e2 mm, and free fall must match 1/2 g t^2 to
+/// 1e-6. See docs/dem.md for the derivations.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "voxpack/core/bed.hpp"
+#include "voxpack/core/progress.hpp"
+
+namespace voxpack::packer::dem {
+
+/// An exact particle shape as the DEM sees it; body frame origin at the centre of mass.
+class DemShape {
+ public:
+  virtual ~DemShape() = default;
+  /// Canonical spec text.
+  virtual std::string spec() const = 0;
+  /// Exact volume (mm^3).
+  virtual double volumeMm3() const = 0;
+  /// Inertia tensor per unit density about the centre of mass (mm^5), body frame.
+  virtual Eigen::Matrix3d inertiaPerDensity() const = 0;
+  /// Radius of the smallest origin-centred sphere containing the shape (mm).
+  virtual double boundingRadiusMm() const = 0;
+  /// Inside test of a body-frame point (mm).
+  virtual bool inside(const Vec3& p) const = 0;
+  /// Signed distance (mm), < 0 inside; never larger than the true distance outside.
+  virtual double signedDistanceMm(const Vec3& p) const = 0;
+  /// Outward unit normal at the surface point nearest to p (body frame).
+  virtual Vec3 normal(const Vec3& p) const = 0;
+};
+
+/// The container as the DEM sees it: an open-top vessel (walls extend upwards).
+class DemContainer {
+ public:
+  virtual ~DemContainer() = default;
+  /// Distance (mm) of a point to the wall: > 0 inside, < 0 outside; the top is open.
+  virtual double wallDistanceMm(const Vec3& p) const = 0;
+  /// Inward unit normal of the nearest wall.
+  virtual Vec3 inwardNormal(const Vec3& p) const = 0;
+  /// Lower corner (x, y, z) of the interior bounds (mm).
+  virtual Vec3 minMm() const = 0;
+  /// Upper corner (x, y, z) of the interior bounds (mm); z = nominal top.
+  virtual Vec3 maxMm() const = 0;
+};
+
+/// How a surface node's force is directed.
+enum class ContactModel {
+  kVoxel,    ///< paper eq. 1: along the node's voxel-face normal (lattice axis, body frame)
+  kLevelSet  ///< LS-DEM (Kawamoto 2016): along the other body's exact surface normal
+};
+
+/// Options of the DEM packer (mm, g, s).
+struct DemOptions {
+  double friction = 0.5;        ///< Coulomb coefficient mu, >= 0
+  double restitution = 0.5;     ///< normal restitution e, 0..1
+  double densityGPerCm3 = 1.5;  ///< particle material density (g/cm^3), > 0
+  /// Face stiffness per unit area and unit depth (N/mm^3): F = k * area * depth. 0 = auto
+  /// from targetOverlap under the estimated bed weight.
+  double stiffnessNPerMm3 = 0;
+  double targetOverlap = 0.004;        ///< auto stiffness: overlap / d under the bed weight
+  double timeStepS = 0;                ///< requested step (s); 0 = timeStepFraction * t_c
+  double timeStepFraction = 1.0 / 30;  ///< step as a fraction of the contact time t_c (1/50..1/10)
+  ContactModel contact = ContactModel::kVoxel;  ///< direction of node forces
+  double gravityMmPerS2 = 9810.0;               ///< gravity magnitude, acting along -z
+  double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (elastic spheres)
+  int tapCycles = 0;                            ///< taps after the pour settled (0 = none)
+  double tapAmplitudeMm = 0;                    ///< container lift per tap; 0 = 0.1 d
+  double tapFrequencyHz = 30;                   ///< one tap = one sine period of the container lift
+  double tapRestS = 0.1;                        ///< free relaxation after each tap (s)
+  bool sleeping = true;                         ///< particles at rest away from motion are frozen
+  double sleepTimeS = 0.01;         ///< time a particle must be at rest before it sleeps
+  double settleKinetic = 1e-6;      ///< settled: mean KE per particle < this * m g d
+  double settleVelocity = 1e-3;     ///< settled: max |v| < this * sqrt(g d)
+  double maxTimeS = 20;             ///< simulated time cap (s)
+  double rainHeightDiameters = 4;   ///< height of one injection batch zone (in d)
+  double rainVolumeFraction = 0.3;  ///< solid fraction of an injection batch
+  double rainSpeedMmPerS = 0;       ///< initial downward speed of injected particles
+  double fillHeightPhiGuess = 0.6;  ///< --fill-height: density used to size the count
+  int threads = 1;                  ///< worker threads (results do not depend on it)
+};
+
+/// Precomputed body-frame (principal axes) data of one particle shape at one voxel size.
+struct ParticleTemplate {
+  std::shared_ptr<const DemShape> shape;     ///< exact master shape
+  Quat principalToShape = Quat::Identity();  ///< rotation principal frame -> shape frame
+  double massG = 0;                          ///< mass (g)
+  Vec3 inertiaG = Vec3::Zero();              ///< principal moments (g mm^2)
+  double radiusMm = 0;                       ///< bounding radius (mm)
+  double diameterMm = 0;                     ///< volume-equivalent diameter (mm)
+  double flatAreaMm2 = 0;                    ///< largest flat face (for the time step)
+  std::vector<Vec3> nodeP;                   ///< node on the exact surface (principal frame)
+  std::vector<Vec3> nodeFace;                ///< voxel face normal of the node (principal)
+  std::vector<Vec3> nodeNormal;              ///< exact outward normal (principal)
+  std::vector<double> nodeArea;              ///< voxel face area h^2 (mm^2)
+  std::vector<double> nodeLsArea;            ///< h^2 * (face . normal): true-area weight
+  /// Bounding spheres of node groups, two levels (coarse groups of fine groups).
+  struct Cluster {
+    Vec3 centre = Vec3::Zero();  ///< principal frame
+    double radius = 0;           ///< mm
+    std::uint32_t begin = 0;     ///< first child (fine cluster or node)
+    std::uint32_t end = 0;       ///< one past the last child
+  };
+  std::vector<Cluster> coarse;  ///< children are fine clusters
+  std::vector<Cluster> fine;    ///< children are nodes
+  /// Signed distance in the principal frame.
+  double sdf(const Vec3& p) const { return shape->signedDistanceMm(principalToShape * p); }
+  /// Outward normal in the principal frame.
+  Vec3 normal(const Vec3& p) const {
+    return principalToShape.conjugate() * shape->normal(principalToShape * p);
+  }
+};
+
+/// Builds the template of `shape` digitised at `voxelMm` (density in g/cm^3).
+ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double voxelMm,
+                               double densityGPerCm3);
+
+/// How a run ended.
+enum class DemStatus { kSettled, kTimeCap, kCancelled };
+/// "settled", "time_cap", "cancelled".
+const char* statusName(DemStatus s);
+
+/// Work counters of a run (sleeping savings).
+struct DemCounters {
+  std::uint64_t steps = 0;                    ///< time steps
+  std::uint64_t particleSteps = 0;            ///< particles present x steps
+  std::uint64_t integratedParticleSteps = 0;  ///< of which integrated (awake)
+  std::uint64_t pairChecks = 0;               ///< neighbour pairs x steps
+  std::uint64_t pairEvaluations = 0;          ///< of which narrow-phase evaluated
+  std::uint64_t nodeEvaluations = 0;          ///< signed-distance evaluations at nodes
+  std::uint64_t neighbourRebuilds = 0;        ///< cell-list rebuilds
+};
+
+/// A rigid-body system of template particles in a container (the integrator).
+class DemSystem {
+ public:
+  /// A system over `templates` in `container` with resolved options (see resolve()).
+  DemSystem(std::vector<ParticleTemplate> templates, std::shared_ptr<const DemContainer> container,
+            const DemOptions& options);
+  ~DemSystem();
+  DemSystem(const DemSystem&) = delete;
+  DemSystem& operator=(const DemSystem&) = delete;
+
+  /// Chooses stiffness (when auto, for a bed `bedHeightMm` high) and the time step; returns
+  /// a warning text when a requested step was clamped, else empty.
+  std::string resolve(double bedHeightMm);
+  /// Adds a particle (orientation of the shape frame, body -> world); returns its index.
+  std::size_t addParticle(std::size_t templateIndex, const Vec3& positionMm, const Quat& q,
+                          const Vec3& velocityMmPerS = Vec3::Zero(),
+                          const Vec3& angularVelocity = Vec3::Zero());
+  /// Advances `n` steps.
+  void step(std::size_t n = 1);
+
+  std::size_t size() const;                                ///< particles
+  Vec3 position(std::size_t i) const;                      ///< centre of mass (mm)
+  Vec3 velocity(std::size_t i) const;                      ///< mm/s
+  Vec3 angularVelocity(std::size_t i) const;               ///< rad/s, world
+  Quat orientation(std::size_t i) const;                   ///< shape frame -> world
+  std::size_t templateOf(std::size_t i) const;             ///< template index
+  bool asleep(std::size_t i) const;                        ///< frozen by sleeping
+  double kineticEnergy() const;                            ///< g mm^2/s^2, translation + rotation
+  double potentialEnergy() const;                          ///< gravity, g mm^2/s^2 (z = 0 datum)
+  double elasticEnergy() const;                            ///< normal springs, last step
+  double maxOverlapMm() const;                             ///< deepest node penetration, last step
+  double timeStepS() const;                                ///< chosen step (s)
+  double contactTimeS() const;                             ///< t_c of the reference contact (s)
+  double stiffnessNPerMm3() const;                         ///< chosen face stiffness
+  double timeS() const;                                    ///< simulated time (s)
+  const DemCounters& counters() const;                     ///< work counters
+  const DemOptions& options() const;                       ///< resolved options
+  const std::vector<ParticleTemplate>& templates() const;  ///< templates
+  /// Vertical container offset (tapping) as a function of time; default none.
+  void setWallMotion(double startS, int cycles);
+  /// True while the container moves.
+  bool wallMoving() const;
+  /// Max particle speed |v| + |w| R (mm/s) and mean kinetic energy per particle.
+  void motionMeasures(double& maxSpeed, double& meanKinetic) const;
+  /// Wakes every sleeping particle.
+  void wakeAll();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// A packing job: shapes (mixture by number fraction), container and target.
+struct DemScene {
+  std::vector<std::shared_ptr<const DemShape>> shapes;  ///< mixture
+  std::vector<double> fractions;                        ///< number fractions (normalised)
+  std::shared_ptr<const DemContainer> container;        ///< vessel
+  double voxelSizeMm = 0.3;                             ///< surface node spacing
+  std::int64_t count = 0;                               ///< particles (or 0 with fillHeight)
+  double fillHeightMm = 0;                              ///< pack to this height (0 = unused)
+  std::uint64_t seed = 0;                               ///< random seed
+};
+
+/// Result of a packing run.
+struct DemResult {
+  DemStatus status = DemStatus::kTimeCap;  ///< how it ended
+  ParticleTable particles;                 ///< final centres, orientations, shape specs
+  double timeStepS = 0;                    ///< time step used
+  double contactTimeS = 0;                 ///< reference contact duration
+  double stiffnessNPerMm3 = 0;             ///< face stiffness used
+  double simulatedTimeS = 0;               ///< simulated time
+  double wallTimeS = 0;                    ///< elapsed wall-clock time
+  double settleTimeS = 0;                  ///< simulated time when the pour settled
+  double maxOverlapMm = 0;                 ///< deepest node penetration at the end
+  DemCounters counters;                    ///< work done
+  std::vector<std::string> messages;       ///< chosen settings and warnings
+};
+
+/// Pours scene.count particles in batches, settles, taps, settles again.
+DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress);
+
+}  // namespace voxpack::packer::dem

@@ -1,0 +1,750 @@
+// The DEM integrator: broad phase on a cell list, narrow phase on surface nodes, spring-
+// dashpot contacts with Coulomb friction, velocity Verlet, sleeping. docs/dem.md.
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <sstream>
+
+#include "voxpack/core/errors.hpp"
+#include "voxpack/packer/dem.hpp"
+
+namespace voxpack::packer::dem {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kWallClasses = 6;  // wall contacts per particle, by the wall normal's main axis
+
+// One penetrating node: where, how deep, which way it pushes body A, how stiff.
+struct Hit {
+  Vec3 p;
+  Vec3 dir;
+  double depth;
+  double kw;  // face stiffness x area weight x side factor (g/s^2)
+};
+
+// Kinematics of one side of a contact (the wall is a body with infinite mass).
+struct Kin {
+  Vec3 x = Vec3::Zero();
+  Vec3 v = Vec3::Zero();
+  Vec3 w = Vec3::Zero();
+};
+
+struct ContactOut {
+  Vec3 force = Vec3::Zero();    // on A
+  Vec3 torqueA = Vec3::Zero();  // on A about xA
+  Vec3 xi = Vec3::Zero();       // tangential spring after this step
+  bool touching = false;
+  double maxDepth = 0;
+  double elastic = 0;
+};
+
+Vec3 quatStep(const Quat& q, const Vec3& theta, Quat& out) {
+  const double a = theta.norm();
+  Quat dq = Quat::Identity();
+  if (a > 0) dq = Quat(Eigen::AngleAxisd(a, theta / a));
+  out = (q * dq).normalized();
+  return theta;
+}
+
+// Restitution of one impact with F = delta^p, damping 2 zeta sqrt(K), K = dF/d(delta),
+// unit mass and unit approach speed (the result does not depend on either).
+double powerLawRestitution(double zeta, double p) {
+  double x = 0, v = 1;
+  const double h = 1e-3;
+  for (int s = 0; s < 200000; ++s) {
+    const double xp = std::max(x, 0.0);
+    const double f = -std::pow(xp, p) - 2 * zeta * std::sqrt(p * std::pow(xp, p - 1)) * v;
+    v += h * f;
+    x += h * v;
+    if (x <= 0 && v < 0) return -v;
+  }
+  return 0;
+}
+
+// Damping ratio that gives restitution e for the law F ~ delta^p (bisection).
+double calibratedZeta(double e, double p) {
+  if (e >= 1) return 0;
+  const double target = std::max(e, 1e-3);
+  double lo = 0, hi = 4;
+  for (int it = 0; it < 30; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (powerLawRestitution(mid, p) > target ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace
+
+const char* statusName(DemStatus s) {
+  switch (s) {
+    case DemStatus::kSettled:
+      return "settled";
+    case DemStatus::kTimeCap:
+      return "time_cap";
+    case DemStatus::kCancelled:
+      return "cancelled";
+  }
+  return "unknown";
+}
+
+struct DemSystem::Impl {
+  std::vector<ParticleTemplate> tmpl;
+  std::shared_ptr<const DemContainer> container;
+  DemOptions opt;
+  double k = 0;                       // face stiffness, g/(mm^2 s^2)
+  double dt = 0;                      // s
+  double tc = 0;                      // s
+  double zeta = 0;                    // damping ratio from restitution (linear law)
+  std::array<double, 7> zetaTable{};  // damping ratio for F ~ delta^p, p = 1, 1.25, ..., 2.5
+
+  double zetaFor(double p) const {
+    const double u = std::clamp((p - 1.0) / 0.25, 0.0, 6.0);
+    const int i = std::min(5, static_cast<int>(u));
+    const double f = u - i;
+    return (1 - f) * zetaTable[static_cast<std::size_t>(i)] +
+           f * zetaTable[static_cast<std::size_t>(i) + 1];
+  }
+  double t = 0;
+  bool resolved = false;
+  // Tapping.
+  double tapStart = 0;
+  int tapCycles = 0;
+  // Particles.
+  std::vector<Vec3> x, v, L, F, T, xBuild;
+  std::vector<Quat> q;  // principal -> world
+  std::vector<std::uint32_t> tid;
+  std::vector<std::uint8_t> awake;
+  std::vector<std::uint32_t> slowSteps;
+  std::vector<std::array<Vec3, kWallClasses>> wallXi;
+  std::vector<Vec3> wallF, wallT;
+  std::vector<double> wallElastic, wallDepth;
+  // Pairs.
+  struct Pair {
+    std::uint32_t i, j;
+    Vec3 xi;
+  };
+  std::vector<Pair> pairs;
+  struct PairOut {
+    ContactOut c;
+    bool evaluated = false;
+  };
+  std::vector<PairOut> pairOut;
+  bool forcesValid = false;
+  bool needRebuild = true;
+  double skin = 0;
+  double elastic = 0;
+  double maxDepth = 0;
+  DemCounters counters;
+
+  double rMax() const {
+    double r = 0;
+    for (const auto& t0 : tmpl) r = std::max(r, t0.radiusMm);
+    return r;
+  }
+  double dMin() const {
+    double d = 1e300;
+    for (const auto& t0 : tmpl) d = std::min(d, t0.diameterMm);
+    return d;
+  }
+
+  double wallOffset(double time, double* velocity) const {
+    if (velocity) *velocity = 0;
+    if (tapCycles <= 0 || time < tapStart) return 0;
+    const double f = opt.tapFrequencyHz;
+    const double period = 1.0 / f + opt.tapRestS;
+    const double tau = time - tapStart;
+    const int cycle = static_cast<int>(std::floor(tau / period));
+    if (cycle >= tapCycles) return 0;
+    const double local = tau - cycle * period;
+    if (local >= 1.0 / f) return 0;
+    const double a = tapAmplitude();
+    const double w = 2 * kPi * f;
+    // Smooth lift and return: z = A/2 (1 - cos wt); peak acceleration A/2 w^2.
+    if (velocity) *velocity = 0.5 * a * w * std::sin(w * local);
+    return 0.5 * a * (1 - std::cos(w * local));
+  }
+  double tapAmplitude() const { return opt.tapAmplitudeMm > 0 ? opt.tapAmplitudeMm : 0.1 * dMin(); }
+  double tapEnd() const { return tapStart + tapCycles * (1.0 / opt.tapFrequencyHz + opt.tapRestS); }
+
+  Vec3 omega(std::size_t i) const {
+    const ParticleTemplate& tp = tmpl[tid[i]];
+    const Eigen::Matrix3d r = q[i].toRotationMatrix();
+    const Vec3 lb = r.transpose() * L[i];
+    return r * Vec3(lb.x() / tp.inertiaG.x(), lb.y() / tp.inertiaG.y(), lb.z() / tp.inertiaG.z());
+  }
+
+  // Spring-dashpot over the hits of one contact, plus the tangential spring of the contact.
+  ContactOut contact(const std::vector<Hit>& hits, const Kin& a, const Kin& b, double mStar,
+                     const Vec3& xiOld) const {
+    ContactOut out;
+    if (hits.empty()) return out;
+    out.touching = true;
+    double wd = 0;
+    Vec3 spring = Vec3::Zero(), cp = Vec3::Zero();
+    for (const Hit& h : hits) {
+      spring += h.kw * h.depth * h.dir;
+      cp += h.kw * h.depth * h.p;
+      wd += h.kw * h.depth;
+      out.maxDepth = std::max(out.maxDepth, h.depth);
+      out.elastic += 0.5 * h.kw * h.depth * h.depth;
+    }
+    cp /= wd;
+    const double springMag = spring.norm();
+    const Vec3 nHat = springMag > 0 ? Vec3(spring / springMag) : Vec3(0, 0, 1);
+    // Tangent stiffness K = dF/d(delta) of the contact: node stiffnesses projected on the
+    // contact normal (a voxel face across the normal adds no normal stiffness).
+    double kSum = 0;
+    for (const Hit& h : hits) kSum += h.kw * std::abs(h.dir.dot(nHat));
+    if (!(kSum > 0)) return out;
+    // Local force law F ~ delta^p (p = 1 flat faces, 2 sphere caps) picks the damping
+    // ratio that gives the requested restitution for that law (calibrated at start-up).
+    const double p = springMag > 0 ? kSum * out.maxDepth / springMag : 1.0;
+    const double zetaC = zetaFor(p);
+    // Contact damping 2 zeta sqrt(m* K), shared among the nodes like their stiffness.
+    const double eta = 2 * zetaC * std::sqrt(mStar * kSum);
+    const double etaPerK = eta / kSum;
+    Vec3 force = Vec3::Zero(), torque = Vec3::Zero();
+    for (const Hit& h : hits) {
+      const Vec3 vrel = a.v + a.w.cross(h.p - a.x) - b.v - b.w.cross(h.p - b.x);
+      const double c = std::abs(h.dir.dot(nHat));
+      const double fn = h.kw * (h.depth - c * etaPerK * vrel.dot(h.dir));
+      const Vec3 f = fn * h.dir;
+      force += f;
+      torque += (h.p - a.x).cross(f);
+    }
+    Vec3 xi = Vec3::Zero();
+    if (springMag > 0) {
+      const Vec3& n = nHat;
+      const double fnMag = std::max(0.0, force.dot(n));
+      const Vec3 vrel = a.v + a.w.cross(cp - a.x) - b.v - b.w.cross(cp - b.x);
+      const Vec3 vt = vrel - vrel.dot(n) * n;
+      // Keep the spring in the current tangent plane with its length (contact rotation).
+      xi = xiOld - xiOld.dot(n) * n;
+      const double oldLen = xiOld.norm(), newLen = xi.norm();
+      if (newLen > 0) xi *= oldLen / newLen;
+      xi += vt * dt;
+      const double kt = opt.tangentialStiffnessRatio * kSum;
+      const double etaT = 2 * zetaC * std::sqrt(mStar * kt);
+      Vec3 ft = -kt * xi - etaT * vt;
+      const double ftMag = ft.norm();
+      const double limit = opt.friction * fnMag;
+      if (ftMag > limit) {
+        ft = ftMag > 0 ? Vec3(ft * (limit / ftMag)) : Vec3::Zero();
+        xi = kt > 0 ? Vec3(-(ft + etaT * vt) / kt) : Vec3::Zero();
+      }
+      force += ft;
+      torque += (cp - a.x).cross(ft);
+    }
+    out.force = force;
+    out.torqueA = torque;
+    out.xi = xi;
+    return out;
+  }
+
+  // Nodes of particle a inside particle b. Force direction is on `a` times `sign`.
+  void nodesInside(std::size_t a, std::size_t b, double factor, double sign, std::vector<Hit>& hits,
+                   std::uint64_t& evals) const {
+    const ParticleTemplate& ta = tmpl[tid[a]];
+    const ParticleTemplate& tb = tmpl[tid[b]];
+    const Eigen::Matrix3d ra = q[a].toRotationMatrix();
+    const Eigen::Matrix3d rb = q[b].toRotationMatrix();
+    const Eigen::Matrix3d m = rb.transpose() * ra;
+    const Vec3 off = rb.transpose() * (x[a] - x[b]);
+    const double rb0 = tb.radiusMm;
+    const bool voxel = opt.contact == ContactModel::kVoxel;
+    for (const auto& c : ta.coarse) {
+      const Vec3 cb = m * c.centre + off;
+      if (cb.norm() > rb0 + c.radius) continue;
+      ++evals;
+      if (tb.sdf(cb) > c.radius) continue;
+      for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
+        const auto& f = ta.fine[fi];
+        const Vec3 fb = m * f.centre + off;
+        if (fb.norm() > rb0 + f.radius) continue;
+        ++evals;
+        if (tb.sdf(fb) > f.radius) continue;
+        for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
+          const Vec3 pb = m * ta.nodeP[ni] + off;
+          if (pb.squaredNorm() > rb0 * rb0) continue;
+          ++evals;
+          const double s = tb.sdf(pb);
+          if (s >= 0) continue;
+          Hit h;
+          h.p = x[a] + ra * ta.nodeP[ni];
+          h.depth = -s;
+          if (voxel) {
+            h.dir = -(ra * ta.nodeFace[ni]);
+            h.kw = k * ta.nodeArea[ni] * factor;
+          } else {
+            h.dir = rb * tb.normal(pb);
+            h.kw = k * ta.nodeLsArea[ni] * factor;
+          }
+          h.dir *= sign;
+          if (h.kw > 0) hits.push_back(h);
+        }
+      }
+    }
+  }
+
+  void rebuildNeighbours() {
+    ++counters.neighbourRebuilds;
+    const std::size_t n = x.size();
+    const double cell = 2 * rMax() + skin;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
+    auto cellIndex = [&](const Vec3& p) {
+      std::array<std::int64_t, 3> c{};
+      for (int a = 0; a < 3; ++a) c[a] = static_cast<std::int64_t>(std::floor(p[a] / cell));
+      return c;
+    };
+    auto pack = [](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
+      return (static_cast<std::uint64_t>(cz + (1 << 20)) << 42) |
+             (static_cast<std::uint64_t>(cy + (1 << 20)) << 21) |
+             static_cast<std::uint64_t>(cx + (1 << 20));
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto c = cellIndex(x[i]);
+      keys[i] = {pack(c[0], c[1], c[2]), static_cast<std::uint32_t>(i)};
+    }
+    std::sort(keys.begin(), keys.end());
+    std::vector<Pair> fresh;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto c = cellIndex(x[i]);
+      const double ri = tmpl[tid[i]].radiusMm;
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const std::uint64_t key = pack(c[0] + dx, c[1] + dy, c[2] + dz);
+            auto it =
+                std::lower_bound(keys.begin(), keys.end(), std::make_pair(key, std::uint32_t{0}));
+            for (; it != keys.end() && it->first == key; ++it) {
+              const std::uint32_t j = it->second;
+              if (j <= i) continue;
+              const double reach = ri + tmpl[tid[j]].radiusMm + skin;
+              if ((x[i] - x[j]).squaredNorm() < reach * reach)
+                fresh.push_back({static_cast<std::uint32_t>(i), j, Vec3::Zero()});
+            }
+          }
+    }
+    std::sort(fresh.begin(), fresh.end(),
+              [](const Pair& a, const Pair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
+    // Carry the tangential springs of surviving pairs over (both lists are sorted).
+    std::size_t o = 0;
+    for (Pair& p : fresh) {
+      while (o < pairs.size() && (pairs[o].i < p.i || (pairs[o].i == p.i && pairs[o].j < p.j))) ++o;
+      if (o < pairs.size() && pairs[o].i == p.i && pairs[o].j == p.j) p.xi = pairs[o].xi;
+    }
+    pairs.swap(fresh);
+    pairOut.assign(pairs.size(), PairOut{});
+    xBuild = x;
+    needRebuild = false;
+  }
+
+  void computeForces() {
+    const std::size_t n = x.size();
+    const int threads = std::max(1, opt.threads);
+    double vw = 0;
+    const double zw = wallOffset(t, &vw);
+    const Vec3 wallShift(0, 0, zw);
+    // Pairs: each writes only its own slot, then a serial sum in pair order keeps the
+    // result independent of the thread count.
+    std::uint64_t evalsTotal = 0, evaluated = 0;
+    const std::int64_t np = static_cast<std::int64_t>(pairs.size());
+#pragma omp parallel num_threads(threads) reduction(+ : evalsTotal, evaluated)
+    {
+      std::vector<Hit> hits;
+#pragma omp for schedule(dynamic, 32)
+      for (std::int64_t pi = 0; pi < np; ++pi) {
+        Pair& p = pairs[static_cast<std::size_t>(pi)];
+        PairOut& po = pairOut[static_cast<std::size_t>(pi)];
+        po = PairOut{};
+        if (!awake[p.i] && !awake[p.j]) continue;
+        const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
+        if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) continue;
+        ++evaluated;
+        po.evaluated = true;
+        hits.clear();
+        std::uint64_t evals = 0;
+        // Both surfaces probe each other at half stiffness: symmetric, and a flat contact
+        // of area A and overlap delta carries k A delta as against a wall.
+        nodesInside(p.i, p.j, 0.5, 1.0, hits, evals);
+        nodesInside(p.j, p.i, 0.5, -1.0, hits, evals);
+        evalsTotal += evals;
+        Kin a{x[p.i], v[p.i], omega(p.i)}, b{x[p.j], v[p.j], omega(p.j)};
+        const double mi = tmpl[tid[p.i]].massG, mj = tmpl[tid[p.j]].massG;
+        po.c = contact(hits, a, b, mi * mj / (mi + mj), p.xi);
+      }
+    }
+    // Walls: per particle, six contact classes.
+    std::uint64_t wallEvals = 0;
+#pragma omp parallel num_threads(threads) reduction(+ : wallEvals)
+    {
+      std::array<std::vector<Hit>, kWallClasses> hits;
+#pragma omp for schedule(dynamic, 16)
+      for (std::int64_t si = 0; si < static_cast<std::int64_t>(n); ++si) {
+        const std::size_t i = static_cast<std::size_t>(si);
+        wallF[i].setZero();
+        wallT[i].setZero();
+        wallElastic[i] = 0;
+        wallDepth[i] = 0;
+        if (!awake[i]) continue;
+        const ParticleTemplate& tp = tmpl[tid[i]];
+        ++wallEvals;
+        if (container->wallDistanceMm(x[i] - wallShift) > tp.radiusMm) {
+          for (auto& xi : wallXi[i]) xi.setZero();
+          continue;
+        }
+        for (auto& h : hits) h.clear();
+        const Eigen::Matrix3d r = q[i].toRotationMatrix();
+        const bool voxel = opt.contact == ContactModel::kVoxel;
+        for (const auto& c : tp.coarse) {
+          ++wallEvals;
+          if (container->wallDistanceMm(x[i] + r * c.centre - wallShift) > c.radius) continue;
+          for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
+            const auto& f = tp.fine[fi];
+            ++wallEvals;
+            if (container->wallDistanceMm(x[i] + r * f.centre - wallShift) > f.radius) continue;
+            for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
+              const Vec3 p = x[i] + r * tp.nodeP[ni];
+              ++wallEvals;
+              const double s = container->wallDistanceMm(p - wallShift);
+              if (s >= 0) continue;
+              const Vec3 nw = container->inwardNormal(p - wallShift);
+              int axis = 0;
+              nw.cwiseAbs().maxCoeff(&axis);
+              const int cls = 2 * axis + (nw[axis] > 0 ? 1 : 0);
+              Hit h;
+              h.p = p;
+              h.depth = -s;
+              if (voxel) {
+                h.dir = -(r * tp.nodeFace[ni]);
+                h.kw = k * tp.nodeArea[ni];
+              } else {
+                h.dir = nw;
+                h.kw = k * tp.nodeLsArea[ni];
+              }
+              if (h.kw > 0) hits[cls].push_back(h);
+            }
+          }
+        }
+        const Kin a{x[i], v[i], omega(i)};
+        Kin b;
+        b.x = x[i];
+        b.v = Vec3(0, 0, vw);
+        for (int cls = 0; cls < kWallClasses; ++cls) {
+          const ContactOut c = contact(hits[cls], a, b, tp.massG, wallXi[i][cls]);
+          wallXi[i][cls] = c.touching ? c.xi : Vec3::Zero();
+          wallF[i] += c.force;
+          wallT[i] += c.torqueA;
+          wallElastic[i] += c.elastic;
+          wallDepth[i] = std::max(wallDepth[i], c.maxDepth);
+        }
+      }
+    }
+    counters.nodeEvaluations += evalsTotal + wallEvals;
+    counters.pairChecks += pairs.size();
+    counters.pairEvaluations += evaluated;
+
+    elastic = 0;
+    maxDepth = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      F[i] = Vec3(0, 0, -opt.gravityMmPerS2 * tmpl[tid[i]].massG);
+      T[i].setZero();
+    }
+    for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
+      Pair& p = pairs[pi];
+      const PairOut& po = pairOut[pi];
+      if (!po.evaluated) {
+        // A pair of sleeping particles keeps its spring; separated pairs lose it.
+        if (awake[p.i] || awake[p.j]) p.xi.setZero();
+        continue;
+      }
+      p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
+      if (!po.c.touching) continue;
+      F[p.i] += po.c.force;
+      T[p.i] += po.c.torqueA;
+      F[p.j] -= po.c.force;
+      T[p.j] -= po.c.torqueA + (x[p.i] - x[p.j]).cross(po.c.force);
+      elastic += po.c.elastic;
+      maxDepth = std::max(maxDepth, po.c.maxDepth);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      F[i] += wallF[i];
+      T[i] += wallT[i];
+      elastic += wallElastic[i];
+      maxDepth = std::max(maxDepth, wallDepth[i]);
+    }
+    forcesValid = true;
+  }
+
+  void kick(double h) {
+    const std::int64_t n = static_cast<std::int64_t>(x.size());
+#pragma omp parallel for num_threads(std::max(1, opt.threads)) schedule(static)
+    for (std::int64_t si = 0; si < n; ++si) {
+      const std::size_t i = static_cast<std::size_t>(si);
+      if (!awake[i]) continue;
+      v[i] += (h / tmpl[tid[i]].massG) * F[i];
+      L[i] += h * T[i];
+    }
+  }
+
+  void drift() {
+    const std::int64_t n = static_cast<std::int64_t>(x.size());
+#pragma omp parallel for num_threads(std::max(1, opt.threads)) schedule(static)
+    for (std::int64_t si = 0; si < n; ++si) {
+      const std::size_t i = static_cast<std::size_t>(si);
+      if (!awake[i]) continue;
+      x[i] += dt * v[i];
+      // Rotation with fixed angular momentum: midpoint body rate, principal axes.
+      const ParticleTemplate& tp = tmpl[tid[i]];
+      auto bodyRate = [&](const Quat& qq) {
+        const Vec3 lb = qq.conjugate() * L[i];
+        return Vec3(lb.x() / tp.inertiaG.x(), lb.y() / tp.inertiaG.y(), lb.z() / tp.inertiaG.z());
+      };
+      Quat mid;
+      quatStep(q[i], 0.5 * dt * bodyRate(q[i]), mid);
+      quatStep(q[i], dt * bodyRate(mid), q[i]);
+    }
+  }
+
+  void sleepUpdate() {
+    const std::size_t n = x.size();
+    const bool moving = wallMovingAt(t);
+    if (!opt.sleeping || moving) {
+      for (std::size_t i = 0; i < n; ++i) awake[i] = 1;
+      return;
+    }
+    const double vSleep = opt.settleVelocity * std::sqrt(opt.gravityMmPerS2 * dMin());
+    const double vWake = 10 * vSleep;
+    const std::uint32_t need =
+        static_cast<std::uint32_t>(std::max(1.0, std::ceil(opt.sleepTimeS / dt)));
+    std::vector<double> speed(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!awake[i]) continue;
+      speed[i] = v[i].norm() + omega(i).norm() * tmpl[tid[i]].radiusMm;
+      slowSteps[i] = speed[i] < vSleep ? slowSteps[i] + 1 : 0;
+    }
+    for (const Pair& p : pairs) {
+      if (speed[p.i] >= vSleep) {
+        slowSteps[p.j] = 0;
+        if (!awake[p.j] && speed[p.i] > vWake) awake[p.j] = 2;  // woken this step
+      }
+      if (speed[p.j] >= vSleep) {
+        slowSteps[p.i] = 0;
+        if (!awake[p.i] && speed[p.j] > vWake) awake[p.i] = 2;
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      if (awake[i] == 2) {
+        awake[i] = 1;
+        slowSteps[i] = 0;
+      } else if (awake[i] && slowSteps[i] >= need) {
+        awake[i] = 0;
+        v[i].setZero();
+        L[i].setZero();
+      }
+    }
+  }
+
+  bool wallMovingAt(double time) const {
+    return tapCycles > 0 && time >= tapStart && time < tapEnd();
+  }
+
+  void stepOnce() {
+    if (!resolved) throw InternalError("DemSystem::step before resolve()");
+    const std::size_t n = x.size();
+    if (needRebuild) rebuildNeighbours();
+    if (!forcesValid) computeForces();
+    kick(0.5 * dt);
+    drift();
+    t += dt;
+    double maxMove2 = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      maxMove2 = std::max(maxMove2, (x[i] - xBuild[i]).squaredNorm());
+    if (4 * maxMove2 > skin * skin) rebuildNeighbours();
+    computeForces();
+    kick(0.5 * dt);
+    sleepUpdate();
+    ++counters.steps;
+    counters.particleSteps += n;
+    for (std::size_t i = 0; i < n; ++i) counters.integratedParticleSteps += awake[i] ? 1 : 0;
+  }
+};
+
+DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
+                     std::shared_ptr<const DemContainer> container, const DemOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (templates.empty()) throw InputError("dem: no particle template");
+  if (!container) throw InputError("dem: no container");
+  const DemOptions& o = options;
+  if (!(o.friction >= 0) || !std::isfinite(o.friction))
+    throw InputError("--friction must be >= 0 (got " + std::to_string(o.friction) + ")");
+  if (!(o.restitution >= 0 && o.restitution <= 1))
+    throw InputError("--restitution must be in 0..1 (got " + std::to_string(o.restitution) + ")");
+  if (!(o.stiffnessNPerMm3 >= 0) || !std::isfinite(o.stiffnessNPerMm3))
+    throw InputError("--stiffness must be >= 0 (0 = auto)");
+  if (!(o.targetOverlap > 0 && o.targetOverlap < 0.2))
+    throw InputError("--target-overlap must be in (0, 0.2)");
+  if (!(o.timeStepS >= 0) || !std::isfinite(o.timeStepS))
+    throw InputError("--time-step must be >= 0 (0 = auto)");
+  if (!(o.timeStepFraction > 0 && o.timeStepFraction <= 0.1))
+    throw InputError("--time-step-fraction must be in (0, 0.1]");
+  if (o.tapCycles < 0) throw InputError("--tap-cycles must be >= 0");
+  if (!(o.tapFrequencyHz > 0) || !(o.tapAmplitudeMm >= 0) || !(o.tapRestS >= 0))
+    throw InputError("--tap-frequency must be > 0, --tap-amplitude and --tap-rest >= 0");
+  if (!(o.maxTimeS > 0)) throw InputError("--max-time must be > 0");
+  if (!(o.gravityMmPerS2 >= 0)) throw InputError("dem: gravity must be >= 0");
+  impl_->tmpl = std::move(templates);
+  impl_->container = std::move(container);
+  impl_->opt = options;
+  const double e = o.restitution;
+  // zeta = -ln e / sqrt(pi^2 + ln^2 e); e = 0 is the critically damped limit.
+  impl_->zeta = e <= 0 ? 1.0 : (e >= 1 ? 0.0 : -std::log(e) / std::hypot(kPi, std::log(e)));
+  impl_->skin = 0.1 * impl_->rMax();
+  impl_->zetaTable[0] = impl_->zeta;
+  for (std::size_t i = 1; i < impl_->zetaTable.size(); ++i)
+    impl_->zetaTable[i] = calibratedZeta(e, 1.0 + 0.25 * static_cast<double>(i));
+}
+
+DemSystem::~DemSystem() = default;
+
+std::string DemSystem::resolve(double bedHeightMm) {
+  Impl& s = *impl_;
+  const DemOptions& o = s.opt;
+  const double rho = o.densityGPerCm3 * 1e-3;
+  const double g = o.gravityMmPerS2;
+  double d = 0, mStar = 1e300, flat = 0;
+  for (const auto& tp : s.tmpl) {
+    d = std::max(d, tp.diameterMm);
+    // Rotation can make a contact stiffer than translation: effective mass I / r^2.
+    const double mEff = std::min(tp.massG, tp.inertiaG.minCoeff() / (tp.radiusMm * tp.radiusMm));
+    mStar = std::min(mStar, 0.5 * mEff);
+    flat = std::max(flat, tp.flatAreaMm2);
+  }
+  const double dRef = s.dMin();
+  if (o.stiffnessNPerMm3 > 0) {
+    s.k = o.stiffnessNPerMm3 * 1e6;
+  } else {
+    // Load on one of ~3 supporting contacts of a particle at the bottom of the bed, carried
+    // by the curved contact law F = k pi (d/4) delta^2 at delta = targetOverlap * d.
+    const double h = std::max(bedHeightMm, 2 * dRef);
+    const double load = rho * std::max(g, 1.0) * 0.6 * h * (kPi * dRef * dRef / 4) / 3;
+    const double delta = o.targetOverlap * dRef;
+    s.k = load / (kPi * (dRef / 4) * delta * delta);
+  }
+  // Deepest expected overlap: a particle falling from one injection zone height.
+  const double fall = (o.rainHeightDiameters + 1) * d;
+  const double v2 = 2 * g * fall + o.rainSpeedMmPerS * o.rainSpeedMmPerS;
+  const double deltaImpact = std::cbrt(3 * mStar * v2 / (2 * s.k * kPi * dRef / 4));
+  const double deltaMax = std::max(5 * o.targetOverlap * dRef, deltaImpact);
+  const double kContact = std::max(s.k * flat, 2 * s.k * kPi * (dRef / 4) * deltaMax);
+  s.tc = kPi * std::sqrt(mStar / kContact);
+  std::string warning;
+  const double dtMax = s.tc / 10;
+  if (o.timeStepS > 0) {
+    s.dt = o.timeStepS;
+    if (s.dt > dtMax) {
+      std::ostringstream w;
+      w << "warning: --time-step " << o.timeStepS
+        << " s is above the stability limit t_c/10 = " << dtMax << " s; clamped to " << dtMax;
+      warning = w.str();
+      s.dt = dtMax;
+    }
+  } else {
+    s.dt = o.timeStepFraction * s.tc;
+  }
+  s.resolved = true;
+  return warning;
+}
+
+std::size_t DemSystem::addParticle(std::size_t templateIndex, const Vec3& positionMm,
+                                   const Quat& qShape, const Vec3& velocity,
+                                   const Vec3& angularVelocity) {
+  Impl& s = *impl_;
+  if (templateIndex >= s.tmpl.size()) throw InputError("dem: bad template index");
+  const ParticleTemplate& tp = s.tmpl[templateIndex];
+  const Quat qp = (qShape.normalized() * tp.principalToShape).normalized();
+  s.x.push_back(positionMm);
+  s.v.push_back(velocity);
+  s.q.push_back(qp);
+  const Eigen::Matrix3d r = qp.toRotationMatrix();
+  const Vec3 wb = r.transpose() * angularVelocity;
+  s.L.push_back(r * tp.inertiaG.cwiseProduct(wb));
+  s.F.push_back(Vec3::Zero());
+  s.T.push_back(Vec3::Zero());
+  s.tid.push_back(static_cast<std::uint32_t>(templateIndex));
+  s.awake.push_back(1);
+  s.slowSteps.push_back(0);
+  s.wallXi.push_back({});
+  for (auto& xi : s.wallXi.back()) xi.setZero();
+  s.wallF.push_back(Vec3::Zero());
+  s.wallT.push_back(Vec3::Zero());
+  s.wallElastic.push_back(0);
+  s.wallDepth.push_back(0);
+  s.xBuild.push_back(positionMm);
+  s.needRebuild = true;
+  s.forcesValid = false;
+  return s.x.size() - 1;
+}
+
+void DemSystem::step(std::size_t n) {
+  for (std::size_t s = 0; s < n; ++s) impl_->stepOnce();
+}
+
+std::size_t DemSystem::size() const { return impl_->x.size(); }
+Vec3 DemSystem::position(std::size_t i) const { return impl_->x.at(i); }
+Vec3 DemSystem::velocity(std::size_t i) const { return impl_->v.at(i); }
+Vec3 DemSystem::angularVelocity(std::size_t i) const { return impl_->omega(i); }
+Quat DemSystem::orientation(std::size_t i) const {
+  return (impl_->q.at(i) * impl_->tmpl[impl_->tid[i]].principalToShape.conjugate()).normalized();
+}
+std::size_t DemSystem::templateOf(std::size_t i) const { return impl_->tid.at(i); }
+bool DemSystem::asleep(std::size_t i) const { return !impl_->awake.at(i); }
+double DemSystem::kineticEnergy() const {
+  const Impl& s = *impl_;
+  double e = 0;
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    e += 0.5 * s.tmpl[s.tid[i]].massG * s.v[i].squaredNorm();
+    e += 0.5 * s.L[i].dot(s.omega(i));
+  }
+  return e;
+}
+double DemSystem::potentialEnergy() const {
+  const Impl& s = *impl_;
+  double e = 0;
+  for (std::size_t i = 0; i < s.x.size(); ++i)
+    e += s.tmpl[s.tid[i]].massG * s.opt.gravityMmPerS2 * s.x[i].z();
+  return e;
+}
+double DemSystem::elasticEnergy() const { return impl_->elastic; }
+double DemSystem::maxOverlapMm() const { return impl_->maxDepth; }
+double DemSystem::timeStepS() const { return impl_->dt; }
+double DemSystem::contactTimeS() const { return impl_->tc; }
+double DemSystem::stiffnessNPerMm3() const { return impl_->k * 1e-6; }
+double DemSystem::timeS() const { return impl_->t; }
+const DemCounters& DemSystem::counters() const { return impl_->counters; }
+const DemOptions& DemSystem::options() const { return impl_->opt; }
+const std::vector<ParticleTemplate>& DemSystem::templates() const { return impl_->tmpl; }
+void DemSystem::setWallMotion(double startS, int cycles) {
+  impl_->tapStart = startS;
+  impl_->tapCycles = cycles;
+}
+bool DemSystem::wallMoving() const { return impl_->wallMovingAt(impl_->t); }
+void DemSystem::motionMeasures(double& maxSpeed, double& meanKinetic) const {
+  const Impl& s = *impl_;
+  maxSpeed = 0;
+  double e = 0;
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    if (!s.awake[i]) continue;
+    maxSpeed = std::max(maxSpeed, s.v[i].norm());
+    e += 0.5 * s.tmpl[s.tid[i]].massG * s.v[i].squaredNorm() + 0.5 * s.L[i].dot(s.omega(i));
+  }
+  meanKinetic = s.x.empty() ? 0 : e / static_cast<double>(s.x.size());
+}
+void DemSystem::wakeAll() {
+  for (auto& a : impl_->awake) a = 1;
+  for (auto& c : impl_->slowSteps) c = 0;
+}
+
+}  // namespace voxpack::packer::dem

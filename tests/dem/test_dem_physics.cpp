@@ -1,0 +1,148 @@
+// Analytic checks of the DEM integrator and contact law (15-20 voxels per diameter).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "analytic.hpp"
+
+namespace voxpack::test {
+namespace {
+
+using packer::dem::buildTemplate;
+using packer::dem::ContactModel;
+using packer::dem::DemOptions;
+using packer::dem::DemSystem;
+
+constexpr double kG = 9810.0;  // mm/s^2
+
+std::unique_ptr<DemSystem> oneShape(std::shared_ptr<const DemShape> shape, double voxelMm,
+                                    const DemOptions& o, std::shared_ptr<const DemContainer> box) {
+  std::vector<packer::dem::ParticleTemplate> t{buildTemplate(shape, voxelMm, o.densityGPerCm3)};
+  auto sys = std::make_unique<DemSystem>(std::move(t), std::move(box), o);
+  const std::string warning = sys->resolve(10.0);
+  EXPECT_TRUE(warning.empty()) << warning;
+  return sys;
+}
+
+DemOptions baseOptions() {
+  DemOptions o;
+  o.stiffnessNPerMm3 = 1.0;
+  o.sleeping = false;
+  o.threads = 1;
+  return o;
+}
+
+// Velocity Verlet is exact for a constant force: the drop matches 1/2 g t^2 to round-off.
+TEST(DemPhysics, FreeFallMatchesHalfGTSquared) {
+  auto sys = oneShape(std::make_shared<TestSphere>(3.0), 0.15, baseOptions(),
+                      std::make_shared<TestBox>(100));
+  sys->addParticle(0, Vec3(0, 0, 80), Quat::Identity());
+  const std::size_t n = 2000;
+  sys->step(n);
+  const double t = sys->timeS();
+  const double drop = 80 - sys->position(0).z();
+  const double expected = 0.5 * kG * t * t;
+  ASSERT_GT(expected, 1.0);
+  ASSERT_LT(expected, 70.0);  // still in the air
+  EXPECT_NEAR(drop / expected, 1.0, 1e-6);
+  EXPECT_NEAR(sys->velocity(0).z() / (-kG * t), 1.0, 1e-6);
+}
+
+// Drops a sphere from a gap H and returns the next apex gap.
+double reboundGap(double restitution, double gapMm, ContactModel model, double* energyIn = nullptr,
+                  double* energyOut = nullptr) {
+  DemOptions o = baseOptions();
+  o.restitution = restitution;
+  o.friction = 0;
+  o.contact = model;
+  auto sys = oneShape(std::make_shared<TestSphere>(3.0), 0.15, o, std::make_shared<TestBox>(40));
+  sys->addParticle(0, Vec3(0, 0, 1.5 + gapMm), Quat::Identity());
+  if (energyIn) *energyIn = sys->kineticEnergy() + sys->potentialEnergy();
+  bool touched = false;
+  double apex = -1;
+  for (int s = 0; s < 400000; ++s) {
+    sys->step();
+    const double z = sys->position(0).z(), vz = sys->velocity(0).z();
+    if (z < 1.5) touched = true;
+    if (touched && z > 1.5 && vz <= 0) {
+      apex = z - 1.5;
+      break;
+    }
+  }
+  if (energyOut) *energyOut = sys->kineticEnergy() + sys->potentialEnergy();
+  return apex;
+}
+
+TEST(DemPhysics, ReboundHeightIsESquared) {
+  for (auto model : {ContactModel::kVoxel, ContactModel::kLevelSet}) {
+    const double e = 0.5, gap = 3.0;
+    const double h = reboundGap(e, gap, model);
+    EXPECT_NEAR(h / (e * e * gap), 1.0, 0.10) << "model " << static_cast<int>(model);
+  }
+}
+
+TEST(DemPhysics, ElasticBounceConservesEnergy) {
+  for (auto model : {ContactModel::kVoxel, ContactModel::kLevelSet}) {
+    double e0 = 0, e1 = 0;
+    const double gap = 3.0;
+    const double h = reboundGap(1.0, gap, model, &e0, &e1);
+    const double m = 1.5e-3 * 4.0 / 3.0 * kPi * 1.5 * 1.5 * 1.5;
+    EXPECT_LT(std::abs(e1 - e0) / (m * kG * gap), 0.01);
+    EXPECT_NEAR(h / gap, 1.0, 0.01);
+  }
+}
+
+TEST(DemPhysics, DampedBounceLosesEnergy) {
+  double e0 = 0, e1 = 0;
+  const double h = reboundGap(0.7, 3.0, ContactModel::kVoxel, &e0, &e1);
+  EXPECT_LT(e1, e0);
+  EXPECT_LT(h, 3.0 * 0.7 * 0.7 * 1.1);
+  EXPECT_GT(h, 3.0 * 0.7 * 0.7 * 0.9);
+}
+
+// A cylinder standing on its flat end: linear contact, overlap = m g / (k A).
+TEST(DemPhysics, RestingOverlapIsWeightOverStiffness) {
+  for (auto model : {ContactModel::kVoxel, ContactModel::kLevelSet}) {
+    DemOptions o = baseOptions();
+    o.stiffnessNPerMm3 = 0.01;
+    o.restitution = 0.3;
+    o.contact = model;
+    auto shape = std::make_shared<TestCylinder>(5.4, 3.8);
+    auto sys = oneShape(shape, 0.27, o, std::make_shared<TestBox>(40));
+    sys->addParticle(0, Vec3(0.05, -0.03, 1.9 + 0.002), Quat::Identity());
+    const std::size_t n = static_cast<std::size_t>(0.1 / sys->timeStepS());
+    sys->step(n);
+    const double m = 1.5e-3 * shape->volumeMm3();
+    const double expected = m * kG / (0.01 * 1e6 * kPi * 2.7 * 2.7);
+    const double overlap = 1.9 - sys->position(0).z();
+    EXPECT_NEAR(overlap / expected, 1.0, 0.10) << "model " << static_cast<int>(model);
+    EXPECT_LT(std::abs(sys->velocity(0).z()), 1e-3);
+  }
+}
+
+// Two spheres (different sizes, off-centre, with friction): momentum is conserved.
+TEST(DemPhysics, HeadOnCollisionConservesMomentum) {
+  DemOptions o = baseOptions();
+  o.gravityMmPerS2 = 0;
+  o.friction = 0.3;
+  o.restitution = 0.5;
+  std::vector<packer::dem::ParticleTemplate> t{
+      buildTemplate(std::make_shared<TestSphere>(3.0), 0.15, o.densityGPerCm3),
+      buildTemplate(std::make_shared<TestSphere>(2.0), 0.1, o.densityGPerCm3)};
+  const double m0 = t[0].massG, m1 = t[1].massG;
+  DemSystem sys(std::move(t), std::make_shared<TestBox>(100), o);
+  sys.resolve(10);
+  sys.addParticle(0, Vec3(-2.0, 0, 50), Quat::Identity(), Vec3(100, 0, 0));
+  sys.addParticle(1, Vec3(1.5, 0.4, 50), Quat::Identity(), Vec3(-150, 0, 0), Vec3(0, 0, 20));
+  const Vec3 p0 = m0 * sys.velocity(0) + m1 * sys.velocity(1);
+  const std::size_t n = static_cast<std::size_t>(0.03 / sys.timeStepS());
+  sys.step(n);
+  const Vec3 p1 = m0 * sys.velocity(0) + m1 * sys.velocity(1);
+  EXPECT_LT((p1 - p0).norm() / (m0 * 100), 1e-9);
+  EXPECT_GT(sys.velocity(0).x(), -150);  // they did collide:
+  EXPECT_LT(sys.velocity(0).x(), 99.0);  // sphere 0 was slowed or reversed
+}
+
+}  // namespace
+}  // namespace voxpack::test
