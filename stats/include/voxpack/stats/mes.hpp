@@ -1,0 +1,81 @@
+#pragma once
+/// \file mes.hpp
+/// Mean empty space (REFERENCES.md §4, our definition): for a void voxel x and a direction
+/// u, the chord c(x, u) = distance to the first solid along +u plus along −u (the container
+/// wall counts as solid); m(x) = mean of c over the directions; reported as the
+/// void-volume-weighted distribution of m. Chords cut by the lattice boundary (the analysis
+/// window) are excluded from m(x); a voxel whose chords are all cut has no m.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "voxpack/core/bed.hpp"
+#include "voxpack/core/progress.hpp"
+
+namespace voxpack::stats {
+
+/// Distribution of a per-voxel length (mean empty space, pore size...).
+struct LengthDistribution {
+  std::vector<double> binsMm;  ///< bin centres (mm)
+  std::vector<double> pdf;     ///< probability density (1/mm), integrates to 1
+  double binWidthMm = 0;       ///< bin width (mm)
+  double meanMm = 0;           ///< mean; NaN when no sample
+  double stdMm = 0;            ///< population standard deviation; NaN when no sample
+  double lognormalMu = 0;      ///< mean of ln(value/mm) (maximum-likelihood lognormal)
+  double lognormalSigma = 0;   ///< standard deviation of ln(value/mm)
+  std::size_t samples = 0;     ///< values counted
+};
+
+/// Histogram, moments and lognormal fit of positive `values` (mm); bins of `binWidthMm`
+/// from 0. Non-finite and non-positive values are skipped.
+LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm);
+
+/// Options of the lattice mean-empty-space path.
+struct MesLatticeOptions {
+  /// Histogram bin width (mm); <= 0 = one voxel (smallest spacing).
+  double binWidthMm = 0;
+  /// Worker threads (>= 1).
+  int threads = 1;
+};
+
+/// Result of a mean-empty-space computation.
+struct MesResult {
+  LengthDistribution distribution;  ///< distribution of m over void voxels
+  std::size_t voidVoxels = 0;       ///< void voxels inside the mask
+  std::size_t undefinedVoxels = 0;  ///< void voxels with every chord cut by the window
+  int directions = 0;               ///< directions per voxel
+  double seconds = 0;               ///< wall time of the computation
+};
+
+/// The 13 lattice line directions (k, j, i steps), one per ± pair.
+const std::vector<std::array<int, 3>>& latticeDirections();
+
+/// Per-voxel m(x) (mm) along the 13 lattice directions by run-length scans, O(N) each;
+/// NaN for solid, outside-mask and all-cut voxels.
+std::vector<float> meanEmptySpaceField(const Bed& bed, int threads,
+                                       Progress& progress = nullProgress());
+
+/// Mean empty space by the lattice path.
+MesResult meanEmptySpaceLattice(const Bed& bed, const MesLatticeOptions& options,
+                                Progress& progress = nullProgress());
+
+/// Options of the isotropic (CGAL ray shooting) path.
+struct MesIsotropicOptions {
+  std::int64_t samples = 20000;  ///< void voxels sampled uniformly (>= 1); all when fewer
+  int directions = 64;           ///< random isotropic directions per sampled voxel (>= 1)
+  std::uint64_t seed = 1;        ///< seed of the sample and the directions
+  double binWidthMm = 0;         ///< histogram bin width; <= 0 = one voxel
+  int threads = 1;               ///< worker threads (>= 1)
+};
+
+/// Mean empty space by isotropic rays shot from sampled void voxel centres against the
+/// surface of the digital solid (voxel faces between void-in-mask and the rest) with a
+/// CGAL AABB tree. A ray leaving the lattice without a hit is a cut chord (excluded).
+/// `sampleOffsets` (optional) receives the voxel offsets sampled, `sampleMeans` their m.
+MesResult meanEmptySpaceIsotropic(const Bed& bed, const MesIsotropicOptions& options,
+                                  Progress& progress = nullProgress(),
+                                  std::vector<std::size_t>* sampleOffsets = nullptr,
+                                  std::vector<double>* sampleMeans = nullptr);
+
+}  // namespace voxpack::stats

@@ -1,0 +1,88 @@
+#pragma once
+/// \file s2.hpp
+/// Two-point probability S2(h) of the void phase by FFT, masked and non-periodic
+/// (REFERENCES.md §4): S2(h) = IFFT(|FFT(I·M)|²)(h) / IFFT(|FFT(M)|²)(h), zero-padded only
+/// to n + h_max per axis. Derivation and the float/double choice: docs/stats.md.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "voxpack/core/grid.hpp"
+#include "voxpack/core/progress.hpp"
+
+namespace voxpack::stats {
+
+/// Floating-point type of the FFTs.
+enum class FftPrecision { Double, Float };
+
+/// Options of twoPointProbability.
+struct S2Options {
+  /// Largest lag (mm) reported, > 0; <= 0 = default: a quarter of the smallest extent,
+  /// at most 64 voxels.
+  double maxLagMm = 0;
+  /// Width (mm) of the radial bins; <= 0 = one voxel (smallest spacing).
+  double binWidthMm = 0;
+  /// Lags whose pair count is below this fraction (0..1) of the zero-lag count are dropped
+  /// (noise, not signal); 0 keeps every lag with at least one pair.
+  double minPairFraction = 0.3;
+  /// FFT precision; double keeps pair counts exact to ~1e-9 (docs/stats.md).
+  FftPrecision precision = FftPrecision::Double;
+  /// Worker threads (>= 1) for FFTW and the lag reduction.
+  int threads = 1;
+};
+
+/// One S2 curve: per bin the mean lag (mm), S2, and the pair count summed over the bin.
+struct S2Curve {
+  std::vector<double> hMm;    ///< pair-weighted mean |h| of each bin (mm); bin 0 is h = 0
+  std::vector<double> s2;     ///< Σ numerator / Σ pair count over the bin
+  std::vector<double> pairs;  ///< Σ pair count over the bin
+};
+
+/// Autocorrelation values for every lag with |h_a| <= maxLag[a], dense, C order
+/// [2hz+1][2hy+1][2hx+1], lag 0 in the middle.
+struct LagGrid {
+  std::array<std::int64_t, 3> maxLag{0, 0, 0};  ///< (hz, hy, hx) voxels
+  std::vector<double> values;                   ///< (2hz+1)(2hy+1)(2hx+1) values
+  /// Value at lag (dz, dy, dx), each |d| <= maxLag.
+  double at(std::int64_t dz, std::int64_t dy, std::int64_t dx) const {
+    const std::int64_t ny = 2 * maxLag[1] + 1, nx = 2 * maxLag[2] + 1;
+    return values[static_cast<std::size_t>(((dz + maxLag[0]) * ny + (dy + maxLag[1])) * nx +
+                                           (dx + maxLag[2]))];
+  }
+};
+
+/// Result of twoPointProbability.
+struct S2Result {
+  double phi = 0;          ///< porosity inside the mask (S2 at h = 0); 0 when empty mask
+  bool emptyMask = false;  ///< no voxel inside the mask: curves are empty
+  std::array<std::int64_t, 3> maxLagVoxels{0, 0, 0};  ///< (hz, hy, hx) lags computed
+  std::array<std::int64_t, 3> paddedDims{0, 0, 0};    ///< FFT sizes used
+  S2Curve radial;      ///< averaged over all directions, binned by |h|
+  S2Curve axial;       ///< h along z only (h⊥ = 0), one bin per lag
+  S2Curve transverse;  ///< h in the x-y plane only (h_z = 0), binned by |h|
+  /// Lag (mm) where (S2 − φ²)/(φ − φ²) of the radial curve first falls below 1/e
+  /// (linear interpolation); < 0 when not reached within the lags computed.
+  double correlationLengthMm = -1;
+  /// Specific surface (1/mm) from the slope at 0: s = −4 S2'(0), first radial bin.
+  double specificSurfacePerMm = -1;
+};
+
+/// Autocorrelation Σ_x f(x) f(x+h) for |h_a| <= maxLag[a] of a real field on `dims`
+/// (C order), by zero-padded FFT (no wrap-around). Exposed for tests and benchmarks.
+LagGrid autocorrelation(const std::vector<double>& field, const std::array<std::int64_t, 3>& dims,
+                        const std::array<std::int64_t, 3>& maxLag, FftPrecision precision,
+                        int threads);
+
+/// S2 of the void phase of `indicator` (1 void) inside `mask` (nullptr = everywhere).
+S2Result twoPointProbability(const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* mask,
+                             const S2Options& options, Progress& progress = nullProgress());
+
+/// The same estimator by brute-force direct sums over every pair (O(N·lags)); for tests.
+S2Result twoPointProbabilityDirect(const Grid<std::uint8_t>& indicator,
+                                   const Grid<std::uint8_t>* mask, const S2Options& options);
+
+/// Smallest FFT-friendly size (factors 2, 3, 5, 7 only) >= n.
+std::int64_t fftFriendlySize(std::int64_t n);
+
+}  // namespace voxpack::stats

@@ -1,0 +1,381 @@
+// Two-point probability by zero-padded FFT (REFERENCES.md §4, docs/stats.md).
+#include "voxpack/stats/s2.hpp"
+
+#include <fftw3.h>
+
+#include <algorithm>
+#include <cmath>
+#include <mutex>
+
+#include "voxpack/core/errors.hpp"
+
+namespace voxpack::stats {
+namespace {
+
+// FFTW's planner is not thread-safe and its thread support must be initialised once.
+std::mutex& plannerMutex() {
+  static std::mutex m;
+  return m;
+}
+void initFftwThreads() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    fftw_init_threads();
+    fftwf_init_threads();
+  });
+}
+
+template <class R>
+struct Fftw;
+template <>
+struct Fftw<double> {
+  using Plan = fftw_plan;
+  using Complex = fftw_complex;
+  static void* alloc(std::size_t n) { return fftw_malloc(n * sizeof(double)); }
+  static void release(void* p) { fftw_free(p); }
+  static void threads(int n) { fftw_plan_with_nthreads(n); }
+  static Plan r2c(int n0, int n1, int n2, double* in, Complex* out) {
+    return fftw_plan_dft_r2c_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2r(int n0, int n1, int n2, Complex* in, double* out) {
+    return fftw_plan_dft_c2r_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
+  }
+  static void execute(Plan p) { fftw_execute(p); }
+  static void destroy(Plan p) { fftw_destroy_plan(p); }
+};
+template <>
+struct Fftw<float> {
+  using Plan = fftwf_plan;
+  using Complex = fftwf_complex;
+  static void* alloc(std::size_t n) { return fftwf_malloc(n * sizeof(float)); }
+  static void release(void* p) { fftwf_free(p); }
+  static void threads(int n) { fftwf_plan_with_nthreads(n); }
+  static Plan r2c(int n0, int n1, int n2, float* in, Complex* out) {
+    return fftwf_plan_dft_r2c_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2r(int n0, int n1, int n2, Complex* in, float* out) {
+    return fftwf_plan_dft_c2r_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
+  }
+  static void execute(Plan p) { fftwf_execute(p); }
+  static void destroy(Plan p) { fftwf_destroy_plan(p); }
+};
+
+using Dims = std::array<std::int64_t, 3>;
+
+// One in-place padded buffer and its forward/backward plans, reused for every field
+// correlated on the same lattice (numerator and pair count).
+template <class R>
+class PaddedCorrelator {
+ public:
+  PaddedCorrelator(const Dims& dims, const Dims& padded, const Dims& maxLag, int threads)
+      : dims_(dims), padded_(padded), maxLag_(maxLag), threads_(std::max(1, threads)) {
+    rowStride_ = 2 * (padded_[2] / 2 + 1);
+    count_ = static_cast<std::size_t>(padded_[0] * padded_[1] * rowStride_);
+    buffer_ = static_cast<R*>(Fftw<R>::alloc(count_));
+    if (!buffer_) throw InputError("S2: cannot allocate the FFT buffer");
+    initFftwThreads();
+    std::lock_guard<std::mutex> lock(plannerMutex());
+    Fftw<R>::threads(threads_);
+    auto* spectrum = reinterpret_cast<typename Fftw<R>::Complex*>(buffer_);
+    const int p0 = static_cast<int>(padded_[0]), p1 = static_cast<int>(padded_[1]),
+              p2 = static_cast<int>(padded_[2]);
+    forward_ = Fftw<R>::r2c(p0, p1, p2, buffer_, spectrum);
+    backward_ = Fftw<R>::c2r(p0, p1, p2, spectrum, buffer_);
+  }
+  ~PaddedCorrelator() {
+    std::lock_guard<std::mutex> lock(plannerMutex());
+    if (forward_) Fftw<R>::destroy(forward_);
+    if (backward_) Fftw<R>::destroy(backward_);
+    Fftw<R>::release(buffer_);
+  }
+  PaddedCorrelator(const PaddedCorrelator&) = delete;
+  PaddedCorrelator& operator=(const PaddedCorrelator&) = delete;
+
+  // value(offset) gives the field at C-order offset of the unpadded lattice.
+  template <class Value>
+  LagGrid run(Value value) {
+    const std::int64_t p0 = padded_[0], p1 = padded_[1], s = rowStride_;
+    const std::int64_t n0 = dims_[0], n1 = dims_[1], n2 = dims_[2];
+    R* buf = buffer_;
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t k = 0; k < p0; ++k) {
+      for (std::int64_t j = 0; j < p1; ++j) {
+        R* row = buf + (k * p1 + j) * s;
+        std::int64_t i = 0;
+        if (k < n0 && j < n1) {
+          const std::size_t base = static_cast<std::size_t>((k * n1 + j) * n2);
+          for (; i < n2; ++i) row[i] = static_cast<R>(value(base + static_cast<std::size_t>(i)));
+        }
+        for (; i < s; ++i) row[i] = R(0);
+      }
+    }
+    Fftw<R>::execute(forward_);
+    // |F|² in place: the autocorrelation's spectrum (Wiener-Khinchin).
+    const std::int64_t pairs = static_cast<std::int64_t>(count_ / 2);
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t c = 0; c < pairs; ++c) {
+      const R re = buf[2 * c], im = buf[2 * c + 1];
+      buf[2 * c] = re * re + im * im;
+      buf[2 * c + 1] = R(0);
+    }
+    Fftw<R>::execute(backward_);
+    LagGrid out;
+    out.maxLag = maxLag_;
+    const std::int64_t hz = maxLag_[0], hy = maxLag_[1], hx = maxLag_[2];
+    const std::int64_t ly = 2 * hy + 1, lx = 2 * hx + 1;
+    out.values.assign(static_cast<std::size_t>((2 * hz + 1) * ly * lx), 0.0);
+    const double norm = 1.0 / (static_cast<double>(padded_[0]) * static_cast<double>(padded_[1]) *
+                               static_cast<double>(padded_[2]));
+    const std::int64_t p2 = padded_[2];
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t dz = -hz; dz <= hz; ++dz) {
+      const std::int64_t kk = (dz + p0) % p0;
+      for (std::int64_t dy = -hy; dy <= hy; ++dy) {
+        const std::int64_t jj = (dy + p1) % p1;
+        const R* row = buf + (kk * p1 + jj) * s;
+        double* dst = out.values.data() + ((dz + hz) * ly + (dy + hy)) * lx;
+        for (std::int64_t dx = -hx; dx <= hx; ++dx)
+          dst[dx + hx] = static_cast<double>(row[(dx + p2) % p2]) * norm;
+      }
+    }
+    return out;
+  }
+
+ private:
+  Dims dims_, padded_, maxLag_;
+  int threads_;
+  std::int64_t rowStride_ = 0;
+  std::size_t count_ = 0;
+  R* buffer_ = nullptr;
+  typename Fftw<R>::Plan forward_ = nullptr;
+  typename Fftw<R>::Plan backward_ = nullptr;
+};
+
+Dims paddedDims(const Dims& dims, const Dims& maxLag) {
+  Dims p{};
+  for (int a = 0; a < 3; ++a) p[a] = fftFriendlySize(dims[a] + maxLag[a]);
+  return p;
+}
+
+// Numerator and pair-count lag grids, FFT path.
+template <class R>
+std::pair<LagGrid, LagGrid> fftLagGrids(const Grid<std::uint8_t>& indicator,
+                                        const Grid<std::uint8_t>* mask, const Dims& maxLag,
+                                        int threads, Progress& progress) {
+  const Dims dims = indicator.lattice().dims;
+  PaddedCorrelator<R> corr(dims, paddedDims(dims, maxLag), maxLag, threads);
+  const std::uint8_t* ind = indicator.data();
+  LagGrid num;
+  if (mask) {
+    const std::uint8_t* m = mask->data();
+    num = corr.run([&](std::size_t o) { return ind[o] & m[o]; });
+  } else {
+    num = corr.run([&](std::size_t o) { return ind[o]; });
+  }
+  progress.report("S2", 0.5);
+  LagGrid den;
+  den.maxLag = maxLag;
+  if (mask) {
+    const std::uint8_t* m = mask->data();
+    den = corr.run([&](std::size_t o) { return m[o]; });
+  } else {
+    // Without a mask the pair count is exact: Π (n_a − |h_a|).
+    den.values.resize(num.values.size());
+    std::size_t idx = 0;
+    for (std::int64_t dz = -maxLag[0]; dz <= maxLag[0]; ++dz)
+      for (std::int64_t dy = -maxLag[1]; dy <= maxLag[1]; ++dy)
+        for (std::int64_t dx = -maxLag[2]; dx <= maxLag[2]; ++dx)
+          den.values[idx++] = static_cast<double>(dims[0] - std::abs(dz)) *
+                              static_cast<double>(dims[1] - std::abs(dy)) *
+                              static_cast<double>(dims[2] - std::abs(dx));
+  }
+  progress.report("S2", 1.0);
+  return {std::move(num), std::move(den)};
+}
+
+Dims resolveMaxLag(const Lattice& l, const S2Options& o) {
+  const double minSpacing = std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
+  double lagMm = o.maxLagMm;
+  if (!(lagMm > 0)) {
+    const std::int64_t minDim = std::min({l.dims[0], l.dims[1], l.dims[2]});
+    lagMm = static_cast<double>(std::clamp<std::int64_t>(minDim / 4, 1, 64)) * minSpacing;
+  }
+  Dims h{};
+  for (int a = 0; a < 3; ++a)
+    h[a] = std::clamp<std::int64_t>(
+        static_cast<std::int64_t>(std::floor(lagMm / l.spacingMm[a] + 1e-9)), 0, l.dims[a] - 1);
+  return h;
+}
+
+void validateOptions(const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* mask,
+                     const S2Options& o) {
+  indicator.lattice().validate("S2 indicator");
+  if (mask && mask->lattice().dims != indicator.lattice().dims)
+    throw InputError("S2: the mask and the indicator have different dimensions");
+  if (!std::isfinite(o.maxLagMm)) throw InputError("S2: max lag must be finite");
+  if (!std::isfinite(o.binWidthMm)) throw InputError("S2: bin width must be finite");
+  if (!(o.minPairFraction >= 0 && o.minPairFraction <= 1))
+    throw InputError("S2: min pair fraction must be in [0, 1]");
+}
+
+struct BinSums {
+  std::vector<double> num, den, lagDen;
+  void add(std::size_t b, double n, double d, double r) {
+    if (b >= num.size()) {
+      num.resize(b + 1, 0.0);
+      den.resize(b + 1, 0.0);
+      lagDen.resize(b + 1, 0.0);
+    }
+    num[b] += n;
+    den[b] += d;
+    lagDen[b] += r * d;
+  }
+  S2Curve curve() const {
+    S2Curve c;
+    for (std::size_t b = 0; b < num.size(); ++b) {
+      if (!(den[b] > 0)) continue;
+      c.hMm.push_back(lagDen[b] / den[b]);
+      c.s2.push_back(num[b] / den[b]);
+      c.pairs.push_back(den[b]);
+    }
+    return c;
+  }
+};
+
+S2Result reduce(const LagGrid& num, const LagGrid& den, const Lattice& l, const S2Options& o,
+                const Dims& maxLag) {
+  S2Result r;
+  r.maxLagVoxels = maxLag;
+  const double zeroPairs = den.at(0, 0, 0);
+  if (!(zeroPairs > 0.5)) {
+    r.emptyMask = true;
+    return r;
+  }
+  r.phi = num.at(0, 0, 0) / zeroPairs;
+  const double minSpacing = std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
+  const double width = o.binWidthMm > 0 ? o.binWidthMm : minSpacing;
+  double maxLagMm = 0;
+  for (int a = 0; a < 3; ++a)
+    maxLagMm = std::max(maxLagMm, static_cast<double>(maxLag[a]) * l.spacingMm[a]);
+  if (o.maxLagMm > 0) maxLagMm = std::min(maxLagMm, o.maxLagMm);
+  const double threshold = std::max(0.5, o.minPairFraction * zeroPairs);
+  const double sz = l.spacingMm[0], sy = l.spacingMm[1], sx = l.spacingMm[2];
+  auto binOf = [&](double rr) -> std::size_t {
+    if (rr == 0) return 0;
+    return static_cast<std::size_t>(std::max(1.0, std::round(rr / width)));
+  };
+  BinSums radial, axial, transverse;
+  for (std::int64_t dz = -maxLag[0]; dz <= maxLag[0]; ++dz)
+    for (std::int64_t dy = -maxLag[1]; dy <= maxLag[1]; ++dy)
+      for (std::int64_t dx = -maxLag[2]; dx <= maxLag[2]; ++dx) {
+        const double d = den.at(dz, dy, dx);
+        if (d < threshold) continue;
+        const double n = num.at(dz, dy, dx);
+        const double z = static_cast<double>(dz) * sz, y = static_cast<double>(dy) * sy,
+                     x = static_cast<double>(dx) * sx;
+        const double rr = std::sqrt(z * z + y * y + x * x);
+        if (rr > maxLagMm * (1 + 1e-12)) continue;
+        radial.add(binOf(rr), n, d, rr);
+        if (dy == 0 && dx == 0) axial.add(static_cast<std::size_t>(std::abs(dz)), n, d, rr);
+        if (dz == 0) transverse.add(binOf(rr), n, d, rr);
+      }
+  r.radial = radial.curve();
+  r.axial = axial.curve();
+  r.transverse = transverse.curve();
+  // Correlation length: first 1/e crossing of the normalised covariance.
+  const double var = r.phi - r.phi * r.phi;
+  if (var > 1e-12) {
+    const auto& h = r.radial.hMm;
+    const auto& s = r.radial.s2;
+    for (std::size_t b = 1; b < s.size(); ++b) {
+      const double f1 = (s[b] - r.phi * r.phi) / var;
+      if (f1 < std::exp(-1.0)) {
+        const double f0 = (s[b - 1] - r.phi * r.phi) / var;
+        const double t = (f0 - std::exp(-1.0)) / (f0 - f1);
+        r.correlationLengthMm = h[b - 1] + t * (h[b] - h[b - 1]);
+        break;
+      }
+    }
+    if (s.size() > 1 && h[1] > 0) r.specificSurfacePerMm = -4.0 * (s[1] - s[0]) / h[1];
+  }
+  return r;
+}
+
+}  // namespace
+
+std::int64_t fftFriendlySize(std::int64_t n) {
+  if (n <= 1) return 1;
+  for (std::int64_t m = n;; ++m) {
+    std::int64_t r = m;
+    for (std::int64_t f : {2, 3, 5, 7})
+      while (r % f == 0) r /= f;
+    if (r == 1) return m;
+  }
+}
+
+LagGrid autocorrelation(const std::vector<double>& field, const Dims& dims, const Dims& maxLag,
+                        FftPrecision precision, int threads) {
+  if (field.size() != static_cast<std::size_t>(dims[0] * dims[1] * dims[2]))
+    throw InputError("autocorrelation: field size does not match dims");
+  Dims h{};
+  for (int a = 0; a < 3; ++a) h[a] = std::clamp<std::int64_t>(maxLag[a], 0, dims[a] - 1);
+  auto value = [&](std::size_t o) { return field[o]; };
+  if (precision == FftPrecision::Float) {
+    PaddedCorrelator<float> c(dims, paddedDims(dims, h), h, threads);
+    return c.run(value);
+  }
+  PaddedCorrelator<double> c(dims, paddedDims(dims, h), h, threads);
+  return c.run(value);
+}
+
+S2Result twoPointProbability(const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* mask,
+                             const S2Options& options, Progress& progress) {
+  validateOptions(indicator, mask, options);
+  const Lattice& l = indicator.lattice();
+  const Dims h = resolveMaxLag(l, options);
+  const int threads = std::max(1, options.threads);
+  auto grids = options.precision == FftPrecision::Float
+                   ? fftLagGrids<float>(indicator, mask, h, threads, progress)
+                   : fftLagGrids<double>(indicator, mask, h, threads, progress);
+  S2Result r = reduce(grids.first, grids.second, l, options, h);
+  r.paddedDims = paddedDims(l.dims, h);
+  return r;
+}
+
+S2Result twoPointProbabilityDirect(const Grid<std::uint8_t>& indicator,
+                                   const Grid<std::uint8_t>* mask, const S2Options& options) {
+  validateOptions(indicator, mask, options);
+  const Lattice& l = indicator.lattice();
+  const Dims h = resolveMaxLag(l, options);
+  const Dims n = l.dims;
+  LagGrid num, den;
+  num.maxLag = den.maxLag = h;
+  const std::size_t lagCount =
+      static_cast<std::size_t>((2 * h[0] + 1) * (2 * h[1] + 1) * (2 * h[2] + 1));
+  num.values.assign(lagCount, 0.0);
+  den.values.assign(lagCount, 0.0);
+  auto m = [&](std::int64_t k, std::int64_t j, std::int64_t i) -> double {
+    return mask ? (*mask)(k, j, i) : 1.0;
+  };
+  std::size_t idx = 0;
+  for (std::int64_t dz = -h[0]; dz <= h[0]; ++dz)
+    for (std::int64_t dy = -h[1]; dy <= h[1]; ++dy)
+      for (std::int64_t dx = -h[2]; dx <= h[2]; ++dx, ++idx) {
+        double sn = 0, sd = 0;
+        for (std::int64_t k = std::max<std::int64_t>(0, -dz); k < std::min(n[0], n[0] - dz); ++k)
+          for (std::int64_t j = std::max<std::int64_t>(0, -dy); j < std::min(n[1], n[1] - dy); ++j)
+            for (std::int64_t i = std::max<std::int64_t>(0, -dx); i < std::min(n[2], n[2] - dx);
+                 ++i) {
+              const double a = m(k, j, i), b = m(k + dz, j + dy, i + dx);
+              sd += a * b;
+              sn += a * b * indicator(k, j, i) * indicator(k + dz, j + dy, i + dx);
+            }
+        num.values[idx] = sn;
+        den.values[idx] = sd;
+      }
+  S2Result r = reduce(num, den, l, options, h);
+  r.paddedDims = n;
+  return r;
+}
+
+}  // namespace voxpack::stats
