@@ -1,7 +1,167 @@
-#include "pending.hpp"
+// voxpack ingest INPUT -o OUT.h5: an imaged volume (MRI/XMT) to a segmented bed file.
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "command.hpp"
+#include "voxpack/core/atomic_file.hpp"
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/parallel.hpp"
+#include "voxpack/core/progress.hpp"
+#include "voxpack/core/version.hpp"
+#include "voxpack/ingest/ingest.hpp"
 
 namespace voxpack::app {
-std::unique_ptr<Command> makeIngestCommand() {
-  return std::make_unique<PendingCommand>("ingest", "segment an imaged volume into a bed file");
+namespace {
+
+namespace fs = std::filesystem;
+using namespace voxpack::ingest;
+
+double parseNumber(const std::string& text, const std::string& option) {
+  std::istringstream in(text);
+  double v = 0;
+  char extra = 0;
+  if (!(in >> v) || (in >> extra) || !std::isfinite(v))
+    throw UsageError(option + " '" + text + "': not a number");
+  return v;
 }
+
+class IngestCommand final : public Command {
+ public:
+  std::string name() const override { return "ingest"; }
+  std::string description() const override {
+    return "segment an imaged volume (MRI/XMT) into a bed file";
+  }
+  void addSwitches(CLI::App& sub) override {
+    sub.add_option("input", input_,
+                   "3-D image file (NRRD, MHA/MHD, NIfTI, TIFF, VTK, ...), a folder of slices, "
+                   "a DICOM series folder, or a Bruker 2dseq")
+        ->required();
+    sub.add_option("-o,--output", output_, "output bed file (.h5)")->required();
+    sub.add_option("--void", void_,
+                   "void (pore) phase: bright (MRI water), dark (XMT air), "
+                   "auto (phantom header, else dark)")
+        ->check(CLI::IsMember({"auto", "bright", "dark"}))
+        ->capture_default_str();
+    sub.add_option("--threshold", threshold_, "otsu, kmeans, or an intensity value")
+        ->capture_default_str();
+    sub.add_option("--column", column_, "auto, none, or CX,CY,R in mm (vertical axis)")
+        ->capture_default_str();
+    sub.add_option("--resample", o_.resampleMm, "resample onto this isotropic voxel (mm)")
+        ->check(CLI::PositiveNumber);
+    sub.add_option("--voxel-size", o_.read.voxelSizeMm,
+                   "isotropic voxel size in mm (overrides the file's spacing)")
+        ->check(CLI::PositiveNumber);
+    sub.add_option("--denoise", denoise_,
+                   "median (voxel + 6 face neighbours), median-box (--median-radius), "
+                   "curvature (anisotropic diffusion) or none")
+        ->check(CLI::IsMember({"none", "median", "median-box", "curvature"}))
+        ->capture_default_str();
+    sub.add_option("--median-radius", o_.medianRadiusVoxels,
+                   "median-box half-width in voxels (1..5)")
+        ->check(CLI::Range(1, 5))
+        ->capture_default_str();
+    sub.add_option("--diffusion-iterations", o_.curvature.iterations,
+                   "curvature diffusion steps (1..100)")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
+    sub.add_option("--diffusion-conductance", o_.curvature.conductance,
+                   "curvature diffusion conductance (> 0)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
+    sub.add_option("--bias-correction", bias_, "none or n4 (N4 bias-field correction, MRI)")
+        ->check(CLI::IsMember({"none", "n4"}))
+        ->capture_default_str();
+    sub.add_option("--n4-shrink", o_.n4Options.shrinkFactor, "N4 shrink factor (1..16)")
+        ->check(CLI::Range(1, 16))
+        ->capture_default_str();
+    sub.add_option("--max-speck-voxels", o_.maxSpeckVoxels,
+                   "solid specks of at most this many voxels become void (0 = keep)")
+        ->capture_default_str();
+    sub.add_option("--max-hole-voxels", o_.maxHoleVoxels,
+                   "holes (void) of at most this many voxels inside solid are filled (0 = keep)")
+        ->capture_default_str();
+    sub.add_flag("--labels", o_.labels, "write /labels: distance map + watershed particle labels");
+    sub.add_option("--marker-depth", o_.labelMarkerDepthVoxels,
+                   "watershed marker depth in voxels (>= 0)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    sub.add_flag("--json", json_, "print the ingest report as JSON on stdout");
+  }
+
+  int execute(const GlobalOptions& global) override {
+    o_.voidPolarity = void_ == "bright" ? VoidPolarity::Bright
+                      : void_ == "dark" ? VoidPolarity::Dark
+                                        : VoidPolarity::Auto;
+    o_.denoise = denoise_ == "median"       ? DenoiseMethod::Median
+                 : denoise_ == "median-box" ? DenoiseMethod::MedianBox
+                 : denoise_ == "curvature"  ? DenoiseMethod::Curvature
+                                            : DenoiseMethod::None;
+    o_.n4 = bias_ == "n4";
+    if (threshold_ == "otsu") {
+      o_.threshold = ThresholdMethod::Otsu;
+    } else if (threshold_ == "kmeans") {
+      o_.threshold = ThresholdMethod::KMeans;
+    } else {
+      o_.threshold = ThresholdMethod::Manual;
+      o_.thresholdValue = parseNumber(threshold_, "--threshold");
+    }
+    if (column_ == "auto") {
+      o_.column = ColumnMode::Auto;
+    } else if (column_ == "none") {
+      o_.column = ColumnMode::None;
+    } else {
+      std::vector<double> v;
+      std::stringstream ss(column_);
+      for (std::string part; std::getline(ss, part, ',');)
+        v.push_back(parseNumber(part, "--column"));
+      if (v.size() != 3 || !(v[2] > 0.0))
+        throw UsageError("--column '" + column_ + "': expected auto, none or CX,CY,R (mm, R > 0)");
+      o_.column = ColumnMode::Explicit;
+      o_.columnXMm = v[0];
+      o_.columnYMm = v[1];
+      o_.columnRadiusMm = v[2];
+    }
+    const fs::path out = output_;
+    ensureWritableDirectory(out.has_parent_path() ? out.parent_path() : fs::path("."), false);
+    StderrProgress progress(global.quiet);
+    IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
+    r.bed.provenance["command_line"] = global.commandLine;
+    writeBed(out, r.bed);
+    if (json_) {
+      std::cout << r.report.dump(2) << '\n';
+      return 0;
+    }
+    if (!global.quiet) {
+      const Lattice& l = r.bed.lattice();
+      std::cout << "wrote " << output_ << ": " << l.dims[0] << " x " << l.dims[1] << " x "
+                << l.dims[2] << " voxels of " << std::setprecision(4) << l.spacingMm[2]
+                << " mm, threshold " << r.thresholdUsed << " ("
+                << (r.voidBright ? "void bright" : "void dark") << "), porosity "
+                << r.report["porosity"].dump();
+      if (r.column.found)
+        std::cout << ", column radius " << r.column.radiusMm << " mm at (" << r.column.axisXMm
+                  << ", " << r.column.axisYMm << ")";
+      else
+        std::cout << ", no column mask";
+      std::cout << '\n';
+    }
+    return 0;
+  }
+
+ private:
+  std::string input_, output_;
+  std::string void_ = "auto", threshold_ = "otsu", column_ = "auto", denoise_ = "median",
+              bias_ = "none";
+  bool json_ = false;
+  IngestOptions o_;
+};
+
+}  // namespace
+
+std::unique_ptr<Command> makeIngestCommand() { return std::make_unique<IngestCommand>(); }
+
 }  // namespace voxpack::app

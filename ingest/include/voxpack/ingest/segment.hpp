@@ -1,0 +1,28 @@
+#pragma once
+/// \file segment.hpp
+/// Two-phase segmentation of a grey volume into the indicator field (1 void, 0 solid):
+/// global threshold (Otsu, two-class k-means or a given value), polarity, and clean-up of
+/// specks and of small holes inside particles.
+
+#include <cstdint>
+
+#include "voxpack/core/grid.hpp"
+
+namespace voxpack::ingest {
+
+/// Otsu's threshold (max between-class variance) over a `bins`-bin histogram of the range.
+double otsuThreshold(const Grid<float>& image, int bins = 1024);
+
+/// Two-class k-means (Ridler-Calvard isodata) threshold: t = mean of the two class means.
+double kmeansThreshold(const Grid<float>& image);
+
+/// Indicator from a threshold: void where value > t (voidBright) or value <= t (dark).
+Grid<std::uint8_t> applyThreshold(const Grid<float>& image, double threshold, bool voidBright);
+
+/// Flips face-connected components of `phase` (0 or 1) with at most `maxVoxels` voxels to
+/// the other phase. Components touching the lattice border are kept (they may continue
+/// outside the image). Returns the number of components flipped.
+std::size_t removeSmallComponents(Grid<std::uint8_t>& indicator, std::uint8_t phase,
+                                  std::size_t maxVoxels);
+
+}  // namespace voxpack::ingest

@@ -1,0 +1,140 @@
+// Median filter (ours: a fixed small window is faster than ITK's generic one) and the
+// Grid-side wrappers of the ITK filters in itk_filters.cpp.
+#include "voxpack/ingest/filters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+#include <vector>
+
+#include "itk_bridge.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/ingest/segment.hpp"
+
+namespace voxpack::ingest {
+namespace {
+
+template <class T>
+bridge::Raw<T> toRaw(const Grid<T>& g) {
+  bridge::Raw<T> r;
+  r.dims = g.lattice().dims;
+  r.spacing = g.lattice().spacingMm;
+  r.origin = g.lattice().originMm;
+  r.data = g.values();
+  return r;
+}
+
+}  // namespace
+
+Grid<float> medianFilter(const Grid<float>& image, int r, int threads) {
+  if (r < 1 || r > 5) throw InputError("median radius must be 1..5 voxels");
+  const Lattice& l = image.lattice();
+  Grid<float> out(l);
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+#pragma omp parallel num_threads(std::max(1, threads))
+  {
+    std::vector<float> window;
+    window.reserve(static_cast<std::size_t>((2 * r + 1) * (2 * r + 1) * (2 * r + 1)));
+#pragma omp for schedule(dynamic, 1)
+    for (std::int64_t k = 0; k < nz; ++k)
+      for (std::int64_t j = 0; j < ny; ++j)
+        for (std::int64_t i = 0; i < nx; ++i) {
+          window.clear();
+          for (std::int64_t c = -r; c <= r; ++c) {
+            const std::int64_t kk = std::clamp<std::int64_t>(k + c, 0, nz - 1);
+            for (std::int64_t b = -r; b <= r; ++b) {
+              const std::int64_t jj = std::clamp<std::int64_t>(j + b, 0, ny - 1);
+              const float* row = image.data() + l.offset(kk, jj, 0);
+              for (std::int64_t a = -r; a <= r; ++a)
+                window.push_back(row[std::clamp<std::int64_t>(i + a, 0, nx - 1)]);
+            }
+          }
+          auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
+          std::nth_element(window.begin(), mid, window.end());
+          out(k, j, i) = *mid;
+        }
+  }
+  return out;
+}
+
+Grid<float> crossMedianFilter(const Grid<float>& image, int threads) {
+  const Lattice& l = image.lattice();
+  Grid<float> out(l);
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+#pragma omp parallel for num_threads(std::max(1, threads)) schedule(dynamic, 1)
+  for (std::int64_t k = 0; k < nz; ++k)
+    for (std::int64_t j = 0; j < ny; ++j)
+      for (std::int64_t i = 0; i < nx; ++i) {
+        float w[7] = {image(k, j, i),
+                      image(std::max<std::int64_t>(k - 1, 0), j, i),
+                      image(std::min(k + 1, nz - 1), j, i),
+                      image(k, std::max<std::int64_t>(j - 1, 0), i),
+                      image(k, std::min(j + 1, ny - 1), i),
+                      image(k, j, std::max<std::int64_t>(i - 1, 0)),
+                      image(k, j, std::min(i + 1, nx - 1))};
+        std::nth_element(w, w + 3, w + 7);
+        out(k, j, i) = w[3];
+      }
+  return out;
+}
+
+void curvatureDiffusion(Grid<float>& image, const CurvatureDiffusionOptions& o, int threads) {
+  if (o.iterations < 1 || o.iterations > 100)
+    throw InputError("curvature diffusion iterations must be 1..100");
+  if (!(o.conductance > 0.0)) throw InputError("curvature diffusion conductance must be > 0");
+  if (!(o.timeStepFraction > 0.0 && o.timeStepFraction <= 1.0))
+    throw InputError("curvature diffusion time-step fraction must be in (0, 1]");
+  auto raw = toRaw(image);
+  // Stability limit of the explicit scheme in 3-D on unit spacing: 1 / 2^(d+1) = 0.0625.
+  bridge::curvatureDiffusion(raw, o.iterations, o.conductance, 0.0625 * o.timeStepFraction,
+                             threads);
+  image.values() = std::move(raw.data);
+}
+
+double n4BiasCorrection(Grid<float>& image, const N4Options& o, int threads, Progress& progress) {
+  if (o.shrinkFactor < 1 || o.shrinkFactor > 16) throw InputError("N4 shrink factor must be 1..16");
+  if (o.fittingLevels < 1 || o.fittingLevels > 6)
+    throw InputError("N4 fitting levels must be 1..6");
+  if (o.iterationsPerLevel < 1) throw InputError("N4 iterations per level must be >= 1");
+  if (o.controlPoints < 4) throw InputError("N4 control points must be >= 4");
+  progress.report("bias correction (N4)", 0.0);
+  // The field is fitted on the bright phase only (MRI water): voxels without signal hold
+  // pure noise, whose logarithm would drag the field.
+  const double t = otsuThreshold(image);
+  std::vector<std::uint8_t> mask(image.size());
+  for (std::size_t n = 0; n < image.size(); ++n) mask[n] = image[n] > t && image[n] > 0.0f;
+  auto raw = toRaw(image);
+  // N4 takes logarithms: keep every intensity positive.
+  float top = 0.0f;
+  for (float v : raw.data) top = std::max(top, v);
+  const float floor = 1e-6f * std::max(1.0f, top);
+  for (float& v : raw.data) v = std::max(v, floor);
+  const double logRange = bridge::n4(raw, mask, o.shrinkFactor, o.fittingLevels,
+                                     o.iterationsPerLevel, o.convergence, o.controlPoints, threads);
+  // Voxels that were clamped to the floor keep their original (non-positive) value scaled.
+  for (std::size_t n = 0; n < image.size(); ++n)
+    if (image[n] > floor) image[n] = raw.data[n];
+  progress.report("bias correction (N4)", 1.0);
+  return std::exp(logRange);
+}
+
+Grid<std::uint32_t> watershedLabels(const Grid<std::uint8_t>& indicator, double markerDepthVoxels,
+                                    int threads, std::size_t* labelCount) {
+  if (!(markerDepthVoxels >= 0.0)) throw InputError("watershed marker depth must be >= 0");
+  bridge::Raw<std::uint8_t> solid = toRaw(indicator);
+  for (auto& v : solid.data) v = v == 0 ? 1 : 0;
+  const std::vector<std::uint32_t> basins = bridge::watershed(solid, markerDepthVoxels, threads);
+  Grid<std::uint32_t> labels(indicator.lattice(), 0);
+  // Basins reach into the void: cut them to the solid, renumber 1..N in scan order.
+  std::unordered_map<std::uint32_t, std::uint32_t> remap;
+  for (std::size_t n = 0; n < indicator.size(); ++n) {
+    if (indicator[n] != 0 || basins[n] == 0) continue;
+    auto [it, inserted] =
+        remap.try_emplace(basins[n], static_cast<std::uint32_t>(remap.size() + 1));
+    labels[n] = it->second;
+  }
+  if (labelCount) *labelCount = remap.size();
+  return labels;
+}
+
+}  // namespace voxpack::ingest

@@ -1,0 +1,163 @@
+// ITK-backed filters behind the plain bridge: curvature anisotropic diffusion, N4 bias
+// correction, distance-map watershed. The second (and last) ITK translation unit.
+#include <itkBSplineControlPointImageFilter.h>
+#include <itkCurvatureAnisotropicDiffusionImageFilter.h>
+#include <itkImage.h>
+#include <itkMorphologicalWatershedImageFilter.h>
+#include <itkN4BiasFieldCorrectionImageFilter.h>
+#include <itkShrinkImageFilter.h>
+#include <itkSignedMaurerDistanceMapImageFilter.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "itk_bridge.hpp"
+#include "voxpack/core/errors.hpp"
+
+namespace voxpack::ingest::bridge {
+namespace {
+
+using FloatImage = itk::Image<float, 3>;
+using MaskImage = itk::Image<unsigned char, 3>;
+using LabelImage = itk::Image<std::uint32_t, 3>;
+
+// Raw -> ITK image. `physical` = false puts it on unit spacing so that ITK's diffusion
+// time step is in voxel units whatever the spacing in mm.
+template <class T, class S>
+typename itk::Image<T, 3>::Pointer toItk(const Raw<S>& r, bool physical) {
+  using Image = itk::Image<T, 3>;
+  auto img = Image::New();
+  typename Image::SizeType size;
+  typename Image::SpacingType sp;
+  typename Image::PointType org;
+  for (unsigned d = 0; d < 3; ++d) {
+    size[d] = static_cast<itk::SizeValueType>(r.dims[2 - d]);
+    sp[d] = physical ? r.spacing[2 - d] : 1.0;
+    org[d] = physical ? r.origin[2 - d] : 0.0;
+  }
+  img->SetRegions(typename Image::RegionType(size));
+  img->SetSpacing(sp);
+  img->SetOrigin(org);
+  img->Allocate();
+  std::transform(r.data.begin(), r.data.end(), img->GetBufferPointer(),
+                 [](S v) { return static_cast<T>(v); });
+  return img;
+}
+
+std::string itkMessage(const itk::ExceptionObject& e) {
+  std::string d = e.GetDescription();
+  for (char& c : d)
+    if (c == '\n' || c == '\r') c = ' ';
+  return d;
+}
+
+}  // namespace
+
+void curvatureDiffusion(Raw<float>& image, int iterations, double conductance, double timeStep,
+                        int threads) {
+  auto img = toItk<float>(image, false);
+  auto f = itk::CurvatureAnisotropicDiffusionImageFilter<FloatImage, FloatImage>::New();
+  f->SetInput(img);
+  f->SetNumberOfIterations(static_cast<unsigned>(iterations));
+  f->SetTimeStep(timeStep);
+  f->SetConductanceParameter(conductance);
+  f->SetNumberOfWorkUnits(static_cast<itk::ThreadIdType>(std::max(1, threads)));
+  try {
+    f->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw InternalError("curvature diffusion failed: " + itkMessage(e));
+  }
+  const float* out = f->GetOutput()->GetBufferPointer();
+  std::copy(out, out + image.data.size(), image.data.begin());
+}
+
+double n4(Raw<float>& image, const std::vector<std::uint8_t>& maskValues, int shrinkFactor,
+          int levels, int iterationsPerLevel, double convergence, int controlPoints, int threads) {
+  auto img = toItk<float>(image, true);
+  Raw<std::uint8_t> maskRaw;
+  maskRaw.dims = image.dims;
+  maskRaw.spacing = image.spacing;
+  maskRaw.origin = image.origin;
+  maskRaw.data = maskValues;
+  auto mask = toItk<unsigned char>(maskRaw, true);
+  const auto tc = static_cast<itk::ThreadIdType>(std::max(1, threads));
+
+  auto shrink = itk::ShrinkImageFilter<FloatImage, FloatImage>::New();
+  shrink->SetInput(img);
+  shrink->SetShrinkFactors(static_cast<unsigned>(shrinkFactor));
+  shrink->SetNumberOfWorkUnits(tc);
+  auto shrinkMask = itk::ShrinkImageFilter<MaskImage, MaskImage>::New();
+  shrinkMask->SetInput(mask);
+  shrinkMask->SetShrinkFactors(static_cast<unsigned>(shrinkFactor));
+
+  using N4 = itk::N4BiasFieldCorrectionImageFilter<FloatImage, MaskImage, FloatImage>;
+  auto f = N4::New();
+  f->SetInput(shrink->GetOutput());
+  f->SetMaskImage(shrinkMask->GetOutput());
+  N4::VariableSizeArrayType iters(static_cast<unsigned>(levels));
+  iters.Fill(static_cast<unsigned>(iterationsPerLevel));
+  f->SetMaximumNumberOfIterations(iters);
+  f->SetNumberOfFittingLevels(static_cast<unsigned>(levels));
+  f->SetConvergenceThreshold(convergence);
+  N4::ArrayType cp;
+  cp.Fill(static_cast<unsigned>(controlPoints));
+  f->SetNumberOfControlPoints(cp);
+  f->SetNumberOfWorkUnits(tc);
+  try {
+    f->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError("N4 bias correction failed: " + itkMessage(e));
+  }
+  // The field lives on a B-spline control lattice in physical space: evaluate it at full
+  // resolution instead of upsampling the shrunk result.
+  using ControlLattice = N4::BiasFieldControlPointLatticeType;
+  using ScalarImage = N4::ScalarImageType;
+  auto bspliner = itk::BSplineControlPointImageFilter<ControlLattice, ScalarImage>::New();
+  bspliner->SetInput(f->GetLogBiasFieldControlPointLattice());
+  bspliner->SetSplineOrder(f->GetSplineOrder());
+  bspliner->SetSize(img->GetLargestPossibleRegion().GetSize());
+  bspliner->SetOrigin(img->GetOrigin());
+  bspliner->SetSpacing(img->GetSpacing());
+  bspliner->SetDirection(img->GetDirection());
+  bspliner->SetNumberOfWorkUnits(tc);
+  try {
+    bspliner->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw InternalError("N4 field reconstruction failed: " + itkMessage(e));
+  }
+  const auto* field = bspliner->GetOutput()->GetBufferPointer();
+  double lo = 1e300, hi = -1e300;
+  for (std::size_t n = 0; n < image.data.size(); ++n) {
+    const double logb = field[n][0];
+    lo = std::min(lo, logb);
+    hi = std::max(hi, logb);
+    image.data[n] = static_cast<float>(image.data[n] / std::exp(logb));
+  }
+  return hi - lo;
+}
+
+std::vector<std::uint32_t> watershed(const Raw<std::uint8_t>& solid, double level, int threads) {
+  const auto tc = static_cast<itk::ThreadIdType>(std::max(1, threads));
+  auto img = toItk<unsigned char>(solid, false);
+  auto dist = itk::SignedMaurerDistanceMapImageFilter<MaskImage, FloatImage>::New();
+  dist->SetInput(img);
+  dist->SetInsideIsPositive(false);  // particle centres become the deepest minima
+  dist->SetUseImageSpacing(false);
+  dist->SetSquaredDistance(false);
+  dist->SetBackgroundValue(0);
+  dist->SetNumberOfWorkUnits(tc);
+  auto ws = itk::MorphologicalWatershedImageFilter<FloatImage, LabelImage>::New();
+  ws->SetInput(dist->GetOutput());
+  ws->SetLevel(static_cast<float>(level));
+  ws->SetMarkWatershedLine(false);
+  ws->SetFullyConnected(true);
+  try {
+    ws->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw InternalError("watershed failed: " + itkMessage(e));
+  }
+  const std::uint32_t* w = ws->GetOutput()->GetBufferPointer();
+  return std::vector<std::uint32_t>(w, w + solid.data.size());
+}
+
+}  // namespace voxpack::ingest::bridge

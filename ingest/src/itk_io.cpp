@@ -1,0 +1,255 @@
+// ITK-backed image reading and writing behind the plain bridge (itk_bridge.hpp). One of
+// the two translation units of the module that include ITK (it compiles slowly).
+#include <itkBMPImageIOFactory.h>
+#include <itkBioRadImageIOFactory.h>
+#include <itkBruker2dseqImageIOFactory.h>
+#include <itkGDCMImageIO.h>
+#include <itkGDCMImageIOFactory.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkGiplImageIOFactory.h>
+#include <itkHDF5ImageIOFactory.h>
+#include <itkImage.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageIOFactory.h>
+#include <itkImageSeriesReader.h>
+#include <itkJPEGImageIOFactory.h>
+#include <itkLSMImageIOFactory.h>
+#include <itkMRCImageIOFactory.h>
+#include <itkMetaDataObject.h>
+#include <itkMetaImageIOFactory.h>
+#include <itkNiftiImageIOFactory.h>
+#include <itkNrrdImageIOFactory.h>
+#include <itkObjectFactoryBase.h>
+#include <itkPNGImageIOFactory.h>
+#include <itkStimulateImageIOFactory.h>
+#include <itkTIFFImageIOFactory.h>
+#include <itkVTKImageIOFactory.h>
+
+#include <algorithm>
+#include <cctype>
+#include <mutex>
+
+#include "itk_bridge.hpp"
+#include "voxpack/core/errors.hpp"
+
+namespace voxpack::ingest::bridge {
+namespace {
+
+using FloatImage3 = itk::Image<float, 3>;
+using FloatImage2 = itk::Image<float, 2>;
+
+std::string itkMessage(const itk::ExceptionObject& e) {
+  std::string d = e.GetDescription();
+  for (char& c : d)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!d.empty() && d.back() == ' ') d.pop_back();
+  return d;
+}
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+Raw<float> fromItk(const FloatImage3* img) {
+  const auto size = img->GetLargestPossibleRegion().GetSize();
+  const auto sp = img->GetSpacing();
+  const auto org = img->GetOrigin();
+  Raw<float> r;
+  r.dims = {static_cast<std::int64_t>(size[2]), static_cast<std::int64_t>(size[1]),
+            static_cast<std::int64_t>(size[0])};
+  r.spacing = {sp[2], sp[1], sp[0]};
+  r.origin = {org[2], org[1], org[0]};
+  const std::size_t n = size[0] * size[1] * size[2];
+  // ITK's buffer is x-fastest: exactly C order [z][y][x].
+  r.data.assign(img->GetBufferPointer(), img->GetBufferPointer() + n);
+  return r;
+}
+
+itk::ImageIOBase::Pointer createIO(const std::string& file) {
+  registerFactories();
+  itk::ImageIOBase::Pointer io =
+      itk::ImageIOFactory::CreateImageIO(file.c_str(), itk::IOFileModeEnum::ReadMode);
+  if (!io) throw FormatError(file + ": not an image format ITK can read");
+  io->SetFileName(file);
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw FormatError(file + ": cannot read the image header: " + itkMessage(e));
+  }
+  return io;
+}
+
+template <class T>
+void writeTyped(const std::string& file, const Raw<float>& r,
+                const std::map<std::string, std::string>& metadata) {
+  using Image = itk::Image<T, 3>;
+  auto img = Image::New();
+  typename Image::SizeType size;
+  typename Image::SpacingType sp;
+  typename Image::PointType org;
+  for (unsigned d = 0; d < 3; ++d) {
+    size[d] = static_cast<itk::SizeValueType>(r.dims[2 - d]);
+    sp[d] = r.spacing[2 - d];
+    org[d] = r.origin[2 - d];
+  }
+  img->SetRegions(typename Image::RegionType(size));
+  img->SetSpacing(sp);
+  img->SetOrigin(org);
+  img->Allocate();
+  std::transform(r.data.begin(), r.data.end(), img->GetBufferPointer(),
+                 [](float v) { return static_cast<T>(v); });
+  auto& dict = img->GetMetaDataDictionary();
+  for (const auto& [k, v] : metadata) itk::EncapsulateMetaData<std::string>(dict, k, v);
+  auto writer = itk::ImageFileWriter<Image>::New();
+  writer->SetFileName(file);
+  writer->SetInput(img);
+  writer->SetUseCompression(true);
+  writer->Update();
+}
+
+}  // namespace
+
+std::vector<std::string> registerFactories() {
+  // Without ITK_USE_FILE nothing registers the IO factories; doing it here keeps ITK's
+  // global compile flags out of the build. Registration is process-wide, so once.
+  static std::once_flag once;
+  std::call_once(once, [] {
+    itk::NrrdImageIOFactory::RegisterOneFactory();
+    itk::MetaImageIOFactory::RegisterOneFactory();
+    itk::NiftiImageIOFactory::RegisterOneFactory();
+    itk::TIFFImageIOFactory::RegisterOneFactory();
+    itk::GDCMImageIOFactory::RegisterOneFactory();
+    itk::Bruker2dseqImageIOFactory::RegisterOneFactory();
+    itk::VTKImageIOFactory::RegisterOneFactory();
+    itk::PNGImageIOFactory::RegisterOneFactory();
+    itk::BMPImageIOFactory::RegisterOneFactory();
+    itk::JPEGImageIOFactory::RegisterOneFactory();
+    itk::GiplImageIOFactory::RegisterOneFactory();
+    itk::HDF5ImageIOFactory::RegisterOneFactory();
+    itk::MRCImageIOFactory::RegisterOneFactory();
+    itk::BioRadImageIOFactory::RegisterOneFactory();
+    itk::LSMImageIOFactory::RegisterOneFactory();
+    itk::StimulateImageIOFactory::RegisterOneFactory();
+    // libtiff warns on every slice carrying ImageJ private tags; harmless, and it would
+    // drown the CLI's one-line error contract.
+    itk::Object::GlobalWarningDisplayOff();
+  });
+  std::vector<std::string> names;
+  for (auto* f : itk::ObjectFactoryBase::GetRegisteredFactories())
+    for (const auto& o : f->GetClassOverrideWithNames())
+      if (lower(o).find("imageio") != std::string::npos) names.push_back(o);
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  return names;
+}
+
+Header readHeader(const std::string& file) {
+  auto io = createIO(file);
+  Header h;
+  h.imageIO = io->GetNameOfClass();
+  h.componentType = itk::ImageIOBase::GetComponentTypeAsString(io->GetComponentType());
+  h.dimensions = io->GetNumberOfDimensions();
+  for (unsigned d = 0; d < std::min(4u, h.dimensions); ++d) h.size[d] = io->GetDimensions(d);
+  for (unsigned d = 0; d < std::min(3u, h.dimensions); ++d) {
+    h.spacing[d] = io->GetSpacing(d);
+    h.origin[d] = io->GetOrigin(d);
+  }
+  if (io->GetNumberOfComponents() > 1)
+    h.metadata["voxpack_components"] = std::to_string(io->GetNumberOfComponents());
+  const auto& dict = io->GetMetaDataDictionary();
+  for (const auto& key : dict.GetKeys()) {
+    std::string value;
+    if (itk::ExposeMetaData<std::string>(dict, key, value) && value.size() < 512)
+      h.metadata[key] = value;
+  }
+  return h;
+}
+
+Raw<float> readFile(const std::string& file) {
+  auto io = createIO(file);
+  auto reader = itk::ImageFileReader<FloatImage3>::New();
+  reader->SetFileName(file);
+  reader->SetImageIO(io);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw FormatError(file + ": cannot read the image data: " + itkMessage(e));
+  }
+  return fromItk(reader->GetOutput());
+}
+
+void readSlice(const std::string& file, float* dst, std::size_t count) {
+  auto io = createIO(file);
+  auto reader = itk::ImageFileReader<FloatImage2>::New();
+  reader->SetFileName(file);
+  reader->SetImageIO(io);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw FormatError(file + ": cannot read the slice: " + itkMessage(e));
+  }
+  const auto size = reader->GetOutput()->GetLargestPossibleRegion().GetSize();
+  if (size[0] * size[1] != count) throw FormatError(file + ": slice size changed while reading");
+  std::copy(reader->GetOutput()->GetBufferPointer(),
+            reader->GetOutput()->GetBufferPointer() + count, dst);
+}
+
+bool isDicom(const std::string& file) {
+  registerFactories();
+  auto gdcm = itk::GDCMImageIO::New();
+  return gdcm->CanReadFile(file.c_str());
+}
+
+Raw<float> readDicomSeries(const std::string& dir, std::vector<std::string>& files,
+                           std::string& componentType, std::size_t& seriesCount) {
+  registerFactories();
+  auto names = itk::GDCMSeriesFileNames::New();
+  names->SetUseSeriesDetails(true);
+  names->SetDirectory(dir);
+  const auto& uids = names->GetSeriesUIDs();
+  if (uids.empty()) throw FormatError(dir + ": no DICOM series found");
+  seriesCount = uids.size();
+  files = names->GetFileNames(uids.front());
+  if (files.size() < 2) throw FormatError(dir + ": the DICOM series holds one slice (a 2-D image)");
+  auto gdcm = itk::GDCMImageIO::New();
+  auto reader = itk::ImageSeriesReader<FloatImage3>::New();
+  reader->SetImageIO(gdcm);
+  reader->SetFileNames(files);
+  try {
+    reader->Update();
+  } catch (const itk::ExceptionObject& e) {
+    throw FormatError(dir + ": cannot read the DICOM series: " + itkMessage(e));
+  }
+  componentType = itk::ImageIOBase::GetComponentTypeAsString(gdcm->GetComponentType());
+  return fromItk(reader->GetOutput());
+}
+
+bool canWrite(const std::string& file) {
+  registerFactories();
+  return static_cast<bool>(
+      itk::ImageIOFactory::CreateImageIO(file.c_str(), itk::IOFileModeEnum::WriteMode));
+}
+
+void write(const std::string& file, const Raw<float>& image, int pixelType,
+           const std::map<std::string, std::string>& metadata) {
+  registerFactories();
+  try {
+    switch (pixelType) {
+      case 0:
+        writeTyped<std::uint8_t>(file, image, metadata);
+        break;
+      case 1:
+        writeTyped<std::uint16_t>(file, image, metadata);
+        break;
+      default:
+        writeTyped<float>(file, image, metadata);
+        break;
+    }
+  } catch (const itk::ExceptionObject& e) {
+    throw IoError(file + ": cannot write: " + itkMessage(e));
+  }
+}
+
+}  // namespace voxpack::ingest::bridge
