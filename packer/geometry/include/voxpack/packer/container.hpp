@@ -9,14 +9,9 @@
 #include <string>
 
 #include "voxpack/core/grid.hpp"
+#include "voxpack/packer/shape.hpp"
 
 namespace voxpack::packer {
-
-/// Axis-aligned bounds in mm.
-struct BoundsMm {
-  Vec3 min = Vec3::Zero();  ///< lower corner (x, y, z)
-  Vec3 max = Vec3::Zero();  ///< upper corner (x, y, z)
-};
 
 /// A container (the region particles must stay in).
 class Container {
@@ -34,9 +29,13 @@ class Container {
   virtual BoundsMm boundsMm() const = 0;
   /// Interior volume in mm^3.
   virtual double volumeMm3() const = 0;
+  /// Inside flags of the n world points p0 + s * step (s = 0..n-1), as inside() would give.
+  virtual void insideRow(const Vec3& p0Mm, const Vec3& stepMm, int n, std::uint8_t* out) const;
   /// For a vertical cylinder: (x, y) of its axis and its radius; false otherwise.
   virtual bool cylinderAxis(double& cxMm, double& cyMm, double& radiusMm) const {
-    (void)cxMm; (void)cyMm; (void)radiusMm;
+    (void)cxMm;
+    (void)cyMm;
+    (void)radiusMm;
     return false;
   }
 };
@@ -51,5 +50,9 @@ Lattice latticeForContainer(const Container& c, double voxelMm, int marginVoxels
 /// The container interior on `lattice`: 1 where the voxel centre is inside (or, with
 /// supersample k > 1, where at least half of k^3 samples are inside), else 0.
 Grid<std::uint8_t> containerMask(const Container& c, const Lattice& lattice, int supersample = 1);
+
+/// Wall distance (mm, > 0 inside, < 0 outside) of every voxel centre of `lattice`: the
+/// container's wall field, as float to halve its memory.
+Grid<float> wallDistanceField(const Container& c, const Lattice& lattice);
 
 }  // namespace voxpack::packer

@@ -38,13 +38,13 @@ struct DigitiseOptions {
 
 /// The digital particle at one pose.
 struct DigitalParticle {
-  std::vector<Voxel> voxels;              ///< solid voxels, sorted by (k, j, i)
-  std::vector<std::uint32_t> surface;     ///< indices into voxels with >= 1 out-facing face
-  std::vector<std::uint8_t> surfaceFaces; ///< FaceBit mask per entry of `surface`
-  std::size_t faceCount = 0;              ///< number of out-facing faces
-  Vec3 centreOfMassMm = Vec3::Zero();     ///< digital centre of mass (world mm)
+  std::vector<Voxel> voxels;               ///< solid voxels, sorted by (k, j, i)
+  std::vector<std::uint32_t> surface;      ///< indices into voxels with >= 1 out-facing face
+  std::vector<std::uint8_t> surfaceFaces;  ///< FaceBit mask per entry of `surface`
+  std::size_t faceCount = 0;               ///< number of out-facing faces
+  Vec3 centreOfMassMm = Vec3::Zero();      ///< digital centre of mass (world mm)
   Eigen::Matrix3d inertiaPerDensity = Eigen::Matrix3d::Zero();  ///< digital, about COM, mm^5
-  double voxelVolumeMm3 = 0;              ///< volume of one voxel
+  double voxelVolumeMm3 = 0;                                    ///< volume of one voxel
   /// Digital volume: voxel count * voxel volume.
   double volumeMm3() const { return static_cast<double>(voxels.size()) * voxelVolumeMm3; }
   /// Digital surface: out-facing faces * face areas (voxel-face surface, paper Fig. 2).

@@ -5,12 +5,19 @@
 /// Rotations are always applied to the exact shape, never to a voxel set.
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <memory>
 #include <string>
 
 #include "voxpack/core/bed.hpp"
 
 namespace voxpack::packer {
+
+/// Axis-aligned bounds in mm.
+struct BoundsMm {
+  Vec3 min = Vec3::Zero();  ///< lower corner (x, y, z)
+  Vec3 max = Vec3::Zero();  ///< upper corner (x, y, z)
+};
 
 /// An exact solid shape in its body frame (mm).
 class Shape {
@@ -38,11 +45,24 @@ class Shape {
   double volumeEquivalentDiameterMm() const;
   /// Largest extent used for "particle diameter" in statistics (mm): e.g. d for cylinders.
   virtual double characteristicDiameterMm() const = 0;
+  /// Axis-aligned bounds of the shape in its body frame (mm); default +-boundingRadius.
+  virtual BoundsMm bodyBoundsMm() const;
+  /// Inside flags of the n body-frame points p0 + s * step (s = 0..n-1): out[s] = 1 when
+  /// inside. The digitiser's inner loop: one virtual call per row, not per voxel.
+  virtual void insideRow(const Vec3& p0, const Vec3& step, int n, std::uint8_t* out) const;
 };
 
 /// Parses a shape SPEC (SPEC.md: sphere, cylinder, ring, box, ellipsoid, trilobe,
 /// mesh:FILE.stl[,scale=S]). Throws InputError on unknown shapes or bad sizes, IoError
 /// on unreadable mesh files.
 std::shared_ptr<const Shape> parseShape(const std::string& spec);
+
+/// A closed triangle mesh read from an ASCII or binary STL file, scaled by `scale` and
+/// shifted so its centre of mass is the body origin. Throws IoError (unreadable) or
+/// InputError (garbage, empty, open or non-manifold mesh), naming the file.
+std::shared_ptr<const Shape> meshShape(const std::string& stlPath, double scale = 1.0);
+
+/// Shortest decimal text that reads back to `v` (used in canonical spec texts).
+std::string formatNumber(double v);
 
 }  // namespace voxpack::packer
