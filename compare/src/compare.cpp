@@ -1,5 +1,6 @@
 #include "voxpack/compare/compare.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -39,29 +40,12 @@ const nlohmann::json& block(const nlohmann::json& stats, const char* key) {
   return (it != stats.end() && it->is_object()) ? *it : empty;
 }
 
-// Slice densities that enter the axial mean/std: stats marks the slices it kept after
-// trimming the bed ends (axial.used or a z range); otherwise all finite slices.
+// Slice densities that enter the axial mean/std: stats lists in axial.density only the
+// slices kept after trimming the bed ends (all slices are in axial.density_all).
 std::vector<double> axialSample(const nlohmann::json& axial) {
-  const std::vector<double> z = numbers(axial, "z_mm");
-  const std::vector<double> d = numbers(axial, "density");
-  std::vector<double> used = numbers(axial, "used");
-  double from = -std::numeric_limits<double>::infinity();
-  double to = std::numeric_limits<double>::infinity();
-  for (const char* key : {"z_range_mm", "trimmed_range_mm", "range_mm"}) {
-    const std::vector<double> r = numbers(axial, key);
-    if (r.size() == 2 && std::isfinite(r[0]) && std::isfinite(r[1])) {
-      from = r[0];
-      to = r[1];
-      break;
-    }
-  }
   std::vector<double> out;
-  for (std::size_t k = 0; k < d.size(); ++k) {
-    if (!std::isfinite(d[k])) continue;
-    if (used.size() == d.size() && !(used[k] > 0.5)) continue;
-    if (k < z.size() && std::isfinite(z[k]) && (z[k] < from || z[k] > to)) continue;
-    out.push_back(d[k]);
-  }
+  for (double v : numbers(axial, "density"))
+    if (std::isfinite(v)) out.push_back(v);
   return out;
 }
 
@@ -310,26 +294,50 @@ Comparison compareBedFiles(const std::filesystem::path& reference,
   if (candidates.empty()) throw InputError("compare: no candidate bed given");
   std::vector<std::filesystem::path> all{reference};
   all.insert(all.end(), candidates.begin(), candidates.end());
+  // Display names: file stems, with the parent folder when stems clash, and a counter
+  // when even that clashes (a bed compared with itself).
+  std::vector<std::string> names;
+  for (const auto& p : all) {
+    std::string n = uniqueName(p, all);
+    const std::string base = n;
+    for (int k = 2; std::find(names.begin(), names.end(), n) != names.end(); ++k)
+      n = base + "#" + std::to_string(k);
+    names.push_back(n);
+  }
   Comparison c;
+  // The reference is often an ingested image without a particle table, so its particle
+  // diameter (which sets the end trimming of the axial statistics and the core margin of
+  // the radial profile) cannot be inferred: the candidates go first and the first inferred
+  // diameter is used for every bed after it, so all beds are trimmed alike.
+  CompareOptions opt = options;
   auto load = [&](const std::filesystem::path& p, std::size_t index) {
     progress.report("compare: statistics of " + p.filename().string(),
                     static_cast<double>(index) / static_cast<double>(all.size()));
     const Bed bed = readBed(p);
     BedEntry e;
-    e.name = uniqueName(p, all);
+    e.name = names[index];
     e.path = p;
     e.spacingMm = bed.lattice().spacingMm;
     e.origin = classifyOrigin(bed.provenance, headerTextOfInputs(bed.provenance));
-    e.stats = stats::computeStats(bed, options.stats, progress);
+    e.stats = stats::computeStats(bed, opt.stats, progress);
     e.shadow = shadowImage(bed);
     e.slice = voidSlice(bed);
+    if (!(opt.stats.particleDiameterMm > 0)) {
+      const double d = number(e.stats, "particle_diameter_mm");
+      if (std::isfinite(d) && d > 0) {
+        opt.stats.particleDiameterMm = d;
+        c.warnings.push_back("particle diameter " + std::to_string(d) + " mm inferred from " +
+                             e.name + " is used for every other bed (set --particle-diameter " +
+                             "to choose it)");
+      }
+    }
     return e;
   };
-  c.reference = load(reference, 0);
-  for (std::size_t n = 0; n < candidates.size(); ++n) {
+  for (std::size_t n = 0; n < candidates.size(); ++n)
     c.candidates.push_back(load(candidates[n], n + 1));
-    c.distances.push_back(computeDistances(c.reference.stats, c.candidates.back().stats, options));
-  }
+  c.reference = load(reference, 0);
+  for (const auto& e : c.candidates)
+    c.distances.push_back(computeDistances(c.reference.stats, e.stats, opt));
   std::vector<const BedEntry*> entries{&c.reference};
   for (const auto& e : c.candidates) entries.push_back(&e);
   const std::pair<const char*, const char*> required[] = {

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -111,12 +112,20 @@ std::string axialCsv(const Comparison& c) {
   o << "bed,z_mm,density,used\n";
   for (const auto* e : entries(c)) {
     const auto& a = block(e->stats, "axial");
-    const auto z = numbers(a, "z_mm");
-    const auto d = numbers(a, "density");
-    const auto used = numbers(a, "used");
+    const auto zUsed = numbers(a, "z_mm");
+    auto z = numbers(a, "z_all_mm");
+    auto d = numbers(a, "density_all");
+    if (z.empty() || z.size() != d.size()) {
+      z = zUsed;
+      d = numbers(a, "density");
+    }
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (double v : zUsed)
+      if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+    const double eps = 1e-9 * (1.0 + std::abs(hi));
     for (std::size_t k = 0; k < std::min(z.size(), d.size()); ++k)
       o << csvField(e->name) << ',' << fmt(z[k]) << ',' << fmt(d[k]) << ','
-        << ((used.size() == d.size() && !(used[k] > 0.5)) ? 0 : 1) << '\n';
+        << ((z[k] >= lo - eps && z[k] <= hi + eps) ? 1 : 0) << '\n';
   }
   return o.str();
 }
