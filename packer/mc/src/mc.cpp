@@ -68,8 +68,8 @@ void validate(const McOptions& o) {
 
 int settleWindowSweeps(const McOptions& o, double particleDiameterMm) {
   if (o.settleSweeps > 0) return o.settleSweeps;
-  // A free particle falls ~0.28 voxel per sweep (9 of 26 directions go down, 20 % of
-  // attempts are rotations): a window of 3 d/h sweeps lets it fall ~0.8 d, well above the
+  // A free particle falls ~0.33 voxel per sweep (9 of 26 directions go down, 5 % of
+  // attempts are rotations): a window of 3 d/h sweeps lets it fall ~1 d, well above the
   // 0.25 d fall threshold, so a falling particle is never taken for a settled one.
   const double k = 3.0 * particleDiameterMm / o.voxelSizeMm;
   return static_cast<int>(std::clamp(std::ceil(k), 20.0, 1.0e6));

@@ -36,16 +36,16 @@ const char* toString(McStatus status);
 
 /// Options of packMonteCarlo().
 struct McOptions {
-  double voxelSizeMm = 0.3;          ///< lattice spacing in mm, > 0
-  std::int64_t count = 0;            ///< particles to pack, >= 1 (0 when fillHeightMm > 0)
-  double fillHeightMm = 0.0;         ///< mm above the container floor; > 0 selects fill mode
-  int supersample = 1;               ///< digitisation samples per axis, 1..8
-  double reboundProbability = 0.1;   ///< p_r: acceptance of an upward move, 0..1
-  double rotationProbability = 0.2;  ///< share of move attempts that are rotations, 0..1
-  double maxRotationDeg = 10.0;      ///< largest angle of one random rotation, degrees, (0, 180]
-  std::int64_t maxSweeps = 20000;    ///< cap on sweeps over the whole run, >= 1
-  int settleSweeps = 0;              ///< K, window of the settling test in sweeps; 0 = auto
-  double settleTolerance = 1e-3;     ///< settled when the mean height falls < tol * height per K
+  double voxelSizeMm = 0.3;           ///< lattice spacing in mm, > 0
+  std::int64_t count = 0;             ///< particles to pack, >= 1 (0 when fillHeightMm > 0)
+  double fillHeightMm = 0.0;          ///< mm above the container floor; > 0 selects fill mode
+  int supersample = 1;                ///< digitisation samples per axis, 1..8
+  double reboundProbability = 0.1;    ///< p_r: acceptance of an upward move, 0..1
+  double rotationProbability = 0.05;  ///< share of move attempts that are rotations, 0..1
+  double maxRotationDeg = 15.0;       ///< largest angle of one random rotation, degrees, (0, 180]
+  std::int64_t maxSweeps = 20000;     ///< cap on sweeps over the whole run, >= 1
+  int settleSweeps = 0;               ///< K, window of the settling test in sweeps; 0 = auto
+  double settleTolerance = 1e-3;      ///< settled when the mean height falls < tol * height per K
   double settleMaxFallDiameters = 0.25;  ///< ...and no particle falls > this * d per K, > 0
   int injectAttempts = 200;              ///< random poses tried for one particle before a batch
                                          ///< closes, >= 1
