@@ -39,6 +39,10 @@ class CompareCommand final : public Command {
     sub.add_option("--s2-step-mm", s2StepMm_,
                    "step of the common S2 lag grid (mm); 0 = the coarser bed's")
         ->check(CLI::NonNegativeNumber);
+    sub.add_option("--bed-fraction", bedFraction_,
+                   "packed region: slices denser than this fraction of the median slice "
+                   "(0 = whole bed; default 0.5)")
+        ->check(CLI::Range(0.0, 1.0));
     sub.add_flag("--no-figures", noFigures_, "numbers and CSV files only (no matplotlib)");
     sub.add_option("--python", python_,
                    "python with matplotlib for the figures (default $VOXPACK_PYTHON or "
@@ -61,6 +65,7 @@ class CompareCommand final : public Command {
     opt.stats.s2MaxLagMm = s2MaxLagMm_;
     opt.stats.threads = resolveThreads(global.threads);
     opt.radialGrid.gridStepMm = radialStepMm_;
+    opt.bedRegionFraction = bedFraction_;
     opt.s2Grid.gridStepMm = s2StepMm_;
     std::vector<fs::path> cands(candidates_.begin(), candidates_.end());
     const compare::Comparison c = compare::compareBedFiles(reference_, cands, opt, progress);
@@ -83,6 +88,7 @@ class CompareCommand final : public Command {
                           {"s2_max_lag_mm", s2MaxLagMm_},
                           {"radial_step_mm", radialStepMm_},
                           {"s2_step_mm", s2StepMm_},
+                          {"bed_fraction", bedFraction_},
                           {"threads", opt.stats.threads},
                           {"figures", !noFigures_}}},
                         {"methods",
@@ -122,6 +128,7 @@ class CompareCommand final : public Command {
   double s2MaxLagMm_ = 0.0;
   double radialStepMm_ = 0.0;
   double s2StepMm_ = 0.0;
+  double bedFraction_ = 0.5;
   bool noFigures_ = false;
   std::string python_;
   std::string figureScript_;

@@ -56,6 +56,89 @@ double meanDensity(const nlohmann::json& stats) {
 
 }  // namespace
 
+stats::StatsOptions defaultStatsOptions() {
+  stats::StatsOptions o;
+  o.only = {"axial", "radial", "s2", "mes"};
+  return o;
+}
+
+PackedRegion packedRegion(const Bed& bed, double fraction) {
+  const Lattice& l = bed.lattice();
+  const std::size_t slice = static_cast<std::size_t>(l.ny() * l.nx());
+  std::vector<double> d(static_cast<std::size_t>(l.nz()), kNaN);
+  for (std::int64_t k = 0; k < l.nz(); ++k) {
+    std::size_t m = 0, solid = 0;
+    const std::size_t base = static_cast<std::size_t>(k) * slice;
+    for (std::size_t o = base; o < base + slice; ++o) {
+      if (bed.mask && (*bed.mask)[o] == 0) continue;
+      ++m;
+      solid += bed.indicator[o] == 0;
+    }
+    if (m > 0) d[static_cast<std::size_t>(k)] = static_cast<double>(solid) / static_cast<double>(m);
+  }
+  // A slice is "packing" when partly solid; a fully solid slice is an end wall or lid.
+  auto packing = [](double v) { return std::isfinite(v) && v > 0.0 && v < 0.999; };
+  std::vector<double> partly;
+  for (double v : d)
+    if (packing(v)) partly.push_back(v);
+  PackedRegion r;
+  r.lastSlice = l.nz() - 1;
+  if (!partly.empty()) {
+    std::nth_element(partly.begin(),
+                     partly.begin() + static_cast<std::ptrdiff_t>(partly.size() / 2), partly.end());
+    r.medianDensity = partly[partly.size() / 2];
+  }
+  if (fraction > 0.0 && r.medianDensity > 0.0) {
+    const double cut = fraction * r.medianDensity;
+    std::int64_t lo = -1, hi = -1;
+    for (std::int64_t k = 0; k < l.nz(); ++k) {
+      const double v = d[static_cast<std::size_t>(k)];
+      if (packing(v) && v >= cut) {
+        if (lo < 0) lo = k;
+        hi = k;
+      }
+    }
+    if (lo >= 0) {
+      r.firstSlice = lo;
+      r.lastSlice = hi;
+    }
+  }
+  r.cropped = r.firstSlice > 0 || r.lastSlice < l.nz() - 1;
+  r.fromMm = l.originMm[0] + static_cast<double>(r.firstSlice) * l.spacingMm[0];
+  r.toMm = l.originMm[0] + static_cast<double>(r.lastSlice) * l.spacingMm[0];
+  return r;
+}
+
+Bed cropSlices(const Bed& bed, std::int64_t first, std::int64_t last) {
+  const Lattice& l = bed.lattice();
+  first = std::max<std::int64_t>(first, 0);
+  last = std::min<std::int64_t>(last, l.nz() - 1);
+  if (last < first) throw InputError("compare: empty slice range to crop");
+  Lattice c = l;
+  c.dims[0] = last - first + 1;
+  c.originMm[0] = l.originMm[0] + static_cast<double>(first) * l.spacingMm[0];
+  const std::size_t slice = static_cast<std::size_t>(l.ny() * l.nx());
+  const auto from = static_cast<std::ptrdiff_t>(static_cast<std::size_t>(first) * slice);
+  const auto to = static_cast<std::ptrdiff_t>(static_cast<std::size_t>(last + 1) * slice);
+  Bed out;
+  out.indicator = Grid<std::uint8_t>(c);
+  std::copy(bed.indicator.values().begin() + from, bed.indicator.values().begin() + to,
+            out.indicator.values().begin());
+  if (bed.mask) {
+    out.mask = Grid<std::uint8_t>(c);
+    std::copy(bed.mask->values().begin() + from, bed.mask->values().begin() + to,
+              out.mask->values().begin());
+  }
+  if (bed.labels) {
+    out.labels = Grid<std::uint32_t>(c);
+    std::copy(bed.labels->values().begin() + from, bed.labels->values().begin() + to,
+              out.labels->values().begin());
+  }
+  out.particles = bed.particles;
+  out.provenance = bed.provenance;
+  return out;
+}
+
 std::vector<double> wallDistanceMm(const nlohmann::json& radial) {
   std::vector<double> w = numbers(radial, "wall_distance_mm");
   const std::vector<double> r = numbers(radial, "r_mm");
@@ -219,14 +302,17 @@ bool contains(const std::string& s, const char* w) { return s.find(w) != std::st
 
 // The first bytes of an image file named in the provenance: enough for an NRRD/MHA text
 // header, which `voxpack phantom` marks.
-std::string headerTextOfInputs(const nlohmann::json& provenance) {
+std::string headerTextOfInputs(const nlohmann::json& provenance,
+                               const std::filesystem::path& bedDir) {
   std::vector<std::string> strings;
   collectStrings(provenance, strings);
   std::string text;
   for (const auto& s : strings) {
     if (s.size() > 4096 || s.find('\n') != std::string::npos) continue;
     std::error_code ec;
-    const std::filesystem::path p(s);
+    std::filesystem::path p(s);
+    // Relative inputs are relative to where ingest ran: try here, then beside the bed.
+    if (!std::filesystem::is_regular_file(p, ec) && p.is_relative()) p = bedDir / p;
     if (!std::filesystem::is_regular_file(p, ec) || p.extension() == ".h5") continue;
     std::ifstream f(p, std::ios::binary);
     std::string buf(16384, '\0');
@@ -255,6 +341,7 @@ BedOrigin classifyOrigin(const nlohmann::json& provenance, const std::string& in
   const std::string all = provenance.dump();
   const bool phantom = hasSyntheticFlag(provenance) || contains(all, "phantom") ||
                        contains(inputHeaderText, "voxpack phantom") ||
+                       contains(inputHeaderText, "voxpack_modality") ||
                        contains(inputHeaderText, "synthetic");
   std::string command;
   if (provenance.is_object()) {
@@ -272,9 +359,16 @@ BedOrigin classifyOrigin(const nlohmann::json& provenance, const std::string& in
     o.synthetic = phantom;
   } else if (contains(command, " pack") || contains(all, "\"pack\"")) {
     o.kind = "simulated";
-    o.detail = contains(command, "dem") || contains(all, "\"dem\"") ? "pack --mode dem"
-               : contains(command, "mc") || contains(all, "\"mc\"") ? "pack --mode mc"
-                                                                    : "pack";
+    std::string mode;
+    if (provenance.is_object() && provenance.contains("mode") && provenance["mode"].is_string())
+      mode = provenance["mode"].get<std::string>();
+    const auto at = command.find("--mode");
+    if (mode.empty() && at != std::string::npos) {
+      std::size_t b = command.find_first_not_of(" =", at + 6);
+      std::size_t e = command.find(' ', b == std::string::npos ? command.size() : b);
+      if (b != std::string::npos) mode = command.substr(b, e == std::string::npos ? e : e - b);
+    }
+    o.detail = mode.empty() ? "pack" : "pack --mode " + mode;
     o.synthetic = true;
   } else if (phantom) {
     o.kind = "synthetic image";
@@ -313,12 +407,16 @@ Comparison compareBedFiles(const std::filesystem::path& reference,
   auto load = [&](const std::filesystem::path& p, std::size_t index) {
     progress.report("compare: statistics of " + p.filename().string(),
                     static_cast<double>(index) / static_cast<double>(all.size()));
-    const Bed bed = readBed(p);
+    const Bed whole = readBed(p);
     BedEntry e;
+    e.region = packedRegion(whole, opt.bedRegionFraction);
+    Bed cropped;
+    if (e.region.cropped) cropped = cropSlices(whole, e.region.firstSlice, e.region.lastSlice);
+    const Bed& bed = e.region.cropped ? cropped : whole;
     e.name = names[index];
     e.path = p;
     e.spacingMm = bed.lattice().spacingMm;
-    e.origin = classifyOrigin(bed.provenance, headerTextOfInputs(bed.provenance));
+    e.origin = classifyOrigin(bed.provenance, headerTextOfInputs(bed.provenance, p.parent_path()));
     e.stats = stats::computeStats(bed, opt.stats, progress);
     e.shadow = shadowImage(bed);
     e.slice = voidSlice(bed);

@@ -358,7 +358,8 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
        "voxel sizes are compared in mm.</p>\n";
 
   h << "<h2>Beds</h2>\n<table id=\"beds\">\n<tr><th>bed</th><th>role</th><th>origin</th>"
-       "<th>file</th><th>voxel z,y,x (mm)</th><th>porosity</th></tr>\n";
+       "<th>file</th><th>voxel z,y,x (mm)</th><th>packed region z "
+       "(mm)</th><th>porosity</th></tr>\n";
   int n = 0;
   for (const auto* e : entries(c)) {
     const double por = e->stats.contains("porosity") && e->stats["porosity"].is_number()
@@ -459,7 +460,9 @@ nlohmann::json summaryJson(const Comparison& c, const nlohmann::json& extras) {
                          {"origin", e->origin.kind},
                          {"origin_detail", e->origin.detail},
                          {"synthetic", e->origin.synthetic},
-                         {"spacing_mm", e->spacingMm}});
+                         {"spacing_mm", e->spacingMm},
+                         {"packed_region_mm", {e->region.fromMm, e->region.toMm}},
+                         {"packed_region_cropped", e->region.cropped}});
     ++n;
   }
   j["reference_stats"] = c.reference.stats;

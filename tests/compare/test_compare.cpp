@@ -174,11 +174,16 @@ TEST(ClassifyOrigin, PackPhantomIngest) {
   EXPECT_EQ(classifyOrigin(mc).detail, "pack --mode mc");
   const json dem = {{"command_line", "voxpack pack --mode dem -o b.h5"}};
   EXPECT_EQ(classifyOrigin(dem).detail, "pack --mode dem");
+  // The mode comes from --mode, not from a path that happens to contain "dem".
+  const json mcInDemo = {{"command_line", "voxpack pack --mode mc -o demo/out.h5"}};
+  EXPECT_EQ(classifyOrigin(mcInDemo).detail, "pack --mode mc");
+  EXPECT_EQ(classifyOrigin({{"command", "pack"}, {"mode", "dem"}}).detail, "pack --mode dem");
   const json ing = {{"command_line", "voxpack ingest scan.nrrd -o r.h5"}};
   EXPECT_EQ(classifyOrigin(ing).kind, "imaged");
   EXPECT_FALSE(classifyOrigin(ing).synthetic);
   // The phantom shows in the ingested image's header or anywhere in the provenance.
   EXPECT_TRUE(classifyOrigin(ing, "NRRD0004\n# voxpack phantom --modality mri\n").synthetic);
+  EXPECT_TRUE(classifyOrigin(ing, "NRRD0004\nvoxpack_modality:=mri\n").synthetic);
   const json chain = {{"command_line", "voxpack ingest p.nrrd -o r.h5"},
                       {"inputs", {{"image", {{"synthetic", true}}}}}};
   EXPECT_EQ(classifyOrigin(chain).kind, "synthetic image");
@@ -278,4 +283,31 @@ TEST(Report, TableListsEveryBed) {
   EXPECT_NE(t.find("mc"), std::string::npos);
   EXPECT_NE(t.find("dem"), std::string::npos);
   EXPECT_NE(t.find("synthetic ref"), std::string::npos);
+}
+
+TEST(PackedRegion, DropsHeadspaceAndSolidEndWalls) {
+  // 10 slices: a solid bottom wall, 6 packed slices at density 0.6, a sparse top surface,
+  // empty headspace with one speck, a solid lid.
+  const Lattice l = Lattice::isotropic(10, 1, 10, 0.5);
+  Bed bed;
+  bed.indicator = Grid<std::uint8_t>(l, 1);
+  const int solidPerSlice[10] = {10, 6, 6, 6, 6, 6, 6, 2, 1, 10};
+  for (int k = 0; k < 10; ++k)
+    for (int i = 0; i < solidPerSlice[k]; ++i) bed.indicator(k, 0, i) = 0;
+  const PackedRegion r = packedRegion(bed, 0.5);
+  EXPECT_EQ(r.firstSlice, 1);
+  EXPECT_EQ(r.lastSlice, 6);
+  EXPECT_TRUE(r.cropped);
+  EXPECT_NEAR(r.medianDensity, 0.6, 1e-12);
+  EXPECT_NEAR(r.fromMm, 0.5, 1e-12);
+  const PackedRegion none = packedRegion(bed, 0.0);
+  EXPECT_FALSE(none.cropped);
+  EXPECT_EQ(none.lastSlice, 9);
+
+  const Bed c = cropSlices(bed, r.firstSlice, r.lastSlice);
+  EXPECT_EQ(c.lattice().nz(), 6);
+  EXPECT_NEAR(c.lattice().originMm[0], 0.5, 1e-12);
+  EXPECT_EQ(c.indicator(0, 0, 5), 0);
+  EXPECT_EQ(c.indicator(0, 0, 6), 1);
+  EXPECT_NEAR(summarize(c).packingDensity, 0.6, 1e-12);
 }

@@ -18,10 +18,36 @@
 
 namespace voxpack::compare {
 
+/// The statistics compare needs (axial, radial, s2, mes), single-threaded.
+stats::StatsOptions defaultStatsOptions();
+
+/// Where the packed region of a bed lies along z.
+struct PackedRegion {
+  std::int64_t firstSlice = 0;  ///< first slice kept
+  std::int64_t lastSlice = -1;  ///< last slice kept (inclusive); < firstSlice = empty
+  double fromMm = 0.0;          ///< z of the first slice kept (mm)
+  double toMm = 0.0;            ///< z of the last slice kept (mm)
+  double medianDensity = 0.0;   ///< median packing density of the partly solid slices
+  bool cropped = false;         ///< true when slices were dropped
+};
+
+/// The slab of slices holding the packing: from the first to the last slice whose packing
+/// density inside the mask is >= fraction x the median over partly solid slices, skipping
+/// fully solid slices (the end walls an imaged column shows). Without it the empty
+/// headspace above a bed and the walls enter porosity, S2 and the mean empty space.
+PackedRegion packedRegion(const Bed& bed, double fraction);
+
+/// A copy of `bed` restricted to slices [first, last] (lattice origin moved accordingly).
+Bed cropSlices(const Bed& bed, std::int64_t first, std::int64_t last);
+
 /// Options of the comparison.
 struct CompareOptions {
   /// Statistics options, the same for every bed so that their numbers are comparable.
-  stats::StatsOptions stats;
+  stats::StatsOptions stats = defaultStatsOptions();
+  /// Packed-region crop: slices denser than this fraction of the bed's median slice
+  /// density (and not fully solid) bound the region every statistic is computed in;
+  /// 0 = no crop (0..1).
+  double bedRegionFraction = 0.5;
   /// KS test settings for the axial slice densities.
   KsOptions ks;
   /// Common grid of wall distance (mm) for the radial RMSE; step <= 0 = coarser bed's.
@@ -99,6 +125,7 @@ struct BedEntry {
   Image2D shadow;                     ///< Fig. 7
   Image2D slice;                      ///< Fig. 8
   std::array<double, 3> spacingMm{};  ///< voxel size (z, y, x)
+  PackedRegion region;                ///< slices the statistics were computed on
 };
 
 /// Result of compareBedFiles.
