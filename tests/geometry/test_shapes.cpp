@@ -191,3 +191,27 @@ TEST(Shapes, BadSpecsAreRefused) {
     EXPECT_THROW(parseShape(bad), InputError) << bad;
   }
 }
+
+// The analytic row fill agrees with the point test away from rounding at the surface.
+TEST(Shapes, RowFillAgreesWithPointTest) {
+  std::uint64_t seed = 21;
+  std::vector<std::uint8_t> row(80);
+  for (const char* text : kSpecs) {
+    const auto s = parseShape(text);
+    RandomStream rng(seed++);
+    const double r = s->boundingRadiusMm();
+    for (int t = 0; t < 400; ++t) {
+      const Vec3 p0(rng.uniform(-1.2 * r, 1.2 * r), rng.uniform(-1.2 * r, 1.2 * r),
+                    rng.uniform(-1.2 * r, 1.2 * r));
+      Vec3 step = Vec3(rng.normal(), rng.normal(), rng.normal()).normalized() * (r / 30);
+      if (t % 4 == 0) step = Vec3(r / 30, 0, 0);  // axis-parallel rows
+      if (t % 4 == 1) step = Vec3(0, 0, r / 30);
+      s->insideRow(p0, step, 80, row.data());
+      for (int k = 0; k < 80; ++k) {
+        const Vec3 p = p0 + k * step;
+        if (std::abs(s->signedDistanceMm(p)) < 1e-9 * r) continue;
+        ASSERT_EQ(row[static_cast<std::size_t>(k)] != 0, s->inside(p)) << text << " " << t;
+      }
+    }
+  }
+}

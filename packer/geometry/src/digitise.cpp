@@ -42,6 +42,8 @@ struct Scratch {
   std::vector<std::uint8_t> solid;   // padded bounding-box bitmap
   std::vector<std::uint8_t> row;     // inside flags of one sample row
   std::vector<std::uint16_t> count;  // supersample hits per voxel of one row
+  std::vector<std::int32_t> rowLo;   // per (k, j) row: first voxel index that may be solid
+  std::vector<std::int32_t> rowHi;   // per (k, j) row: last voxel index that may be solid
 };
 Scratch& scratch() {
   thread_local Scratch s;
@@ -99,12 +101,14 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
   const int nSamples = static_cast<int>(ni) * ss;
   sc.row.resize(static_cast<std::size_t>(nSamples));
   sc.count.resize(static_cast<std::size_t>(ni));
+  sc.rowLo.assign(static_cast<std::size_t>(nk * nj), static_cast<std::int32_t>(ni));
+  sc.rowHi.assign(static_cast<std::size_t>(nk * nj), -1);
   const int need = (ss * ss * ss + 1) / 2;  // "at least half of k^3 inside"
   const double off0 = -0.5 + 0.5 * sub;
   for (std::int64_t k = 0; k < nk; ++k) {
     for (std::int64_t j = 0; j < nj; ++j) {
+      const std::size_t r = static_cast<std::size_t>(k * nj + j);
       if (ss > 1) std::fill(sc.count.begin(), sc.count.end(), std::uint16_t{0});
-      bool any = false;
       for (int b = 0; b < ss; ++b) {
         for (int a = 0; a < ss; ++a) {
           const Vec3 w0 = lattice.centerMm(k0 + k, j0 + j, i0) +
@@ -117,20 +121,26 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
           if (s1 < s0) continue;
           shape.insideRow(p0 + static_cast<double>(s0) * stepBody, stepBody, s1 - s0 + 1,
                           sc.row.data() + s0);
+          sc.rowLo[r] = std::min(sc.rowLo[r], s0 / ss);
+          sc.rowHi[r] = std::max(sc.rowHi[r], s1 / ss);
           if (ss == 1) {
-            std::uint8_t* dst = &sc.solid[pad(k, j, 0)];
-            for (int s = s0; s <= s1; ++s) dst[s] = sc.row[static_cast<std::size_t>(s)];
-            any = true;
+            std::copy(sc.row.begin() + s0, sc.row.begin() + s1 + 1,
+                      sc.solid.begin() + static_cast<std::ptrdiff_t>(pad(k, j, s0)));
           } else {
-            for (int s = s0; s <= s1; ++s)
-              sc.count[static_cast<std::size_t>(s / ss)] += sc.row[static_cast<std::size_t>(s)];
-            any = true;
+            int i = s0 / ss, phase = s0 % ss;
+            for (int s = s0; s <= s1; ++s) {
+              sc.count[static_cast<std::size_t>(i)] += sc.row[static_cast<std::size_t>(s)];
+              if (++phase == ss) {
+                phase = 0;
+                ++i;
+              }
+            }
           }
         }
       }
-      if (ss > 1 && any) {
+      if (ss > 1) {
         std::uint8_t* dst = &sc.solid[pad(k, j, 0)];
-        for (std::int64_t i = 0; i < ni; ++i)
+        for (std::int32_t i = sc.rowLo[r]; i <= sc.rowHi[r]; ++i)
           dst[i] = sc.count[static_cast<std::size_t>(i)] >= need ? 1 : 0;
       }
     }
@@ -138,14 +148,27 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
 
   DigitalParticle out;
   out.voxelVolumeMm3 = sx * sy * sz;
+  {
+    // Rough sizes (exact volume, 1.5x area in faces) so the vectors rarely grow.
+    const double v = shape.volumeMm3() / out.voxelVolumeMm3;
+    const double f = 1.5 * shape.surfaceMm2() / std::min({sx * sy, sy * sz, sx * sz});
+    if (v < 1e9) out.voxels.reserve(static_cast<std::size_t>(v * 1.05) + 64);
+    if (f < 1e9) {
+      out.surface.reserve(static_cast<std::size_t>(f * 0.8) + 64);
+      out.surfaceFaces.reserve(static_cast<std::size_t>(f * 0.8) + 64);
+    }
+  }
   double s1 = 0, sI = 0, sJ = 0, sK = 0;
   double sII = 0, sJJ = 0, sKK = 0, sIJ = 0, sIK = 0, sJK = 0;
   std::size_t fx = 0, fy = 0, fz = 0;
   const std::size_t dk = static_cast<std::size_t>(pi * pj), dj = static_cast<std::size_t>(pi);
   for (std::int64_t k = 0; k < nk; ++k) {
     for (std::int64_t j = 0; j < nj; ++j) {
+      const std::size_t r = static_cast<std::size_t>(k * nj + j);
       const std::size_t base = pad(k, j, 0);
-      for (std::int64_t i = 0; i < ni; ++i) {
+      // Moments per row in exact integers: n, sum i, sum i^2.
+      std::int64_t rn = 0, ri = 0, rii = 0;
+      for (std::int64_t i = sc.rowLo[r]; i <= sc.rowHi[r]; ++i) {
         const std::size_t o = base + static_cast<std::size_t>(i);
         if (!sc.solid[o]) continue;
         std::uint8_t f = 0;
@@ -164,20 +187,25 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
         }
         out.voxels.push_back({static_cast<std::int32_t>(k0 + k), static_cast<std::int32_t>(j0 + j),
                               static_cast<std::int32_t>(i0 + i)});
-        // Moments in local index units (small numbers: no cancellation).
-        const double x = static_cast<double>(i), y = static_cast<double>(j),
-                     z = static_cast<double>(k);
-        s1 += 1;
-        sI += x;
-        sJ += y;
-        sK += z;
-        sII += x * x;
-        sJJ += y * y;
-        sKK += z * z;
-        sIJ += x * y;
-        sIK += x * z;
-        sJK += y * z;
+        ++rn;
+        ri += i;
+        rii += i * i;
       }
+      if (rn == 0) continue;
+      // Local index units (small numbers: no cancellation).
+      const double n = static_cast<double>(rn), x = static_cast<double>(ri),
+                   xx = static_cast<double>(rii);
+      const double y = static_cast<double>(j), z = static_cast<double>(k);
+      s1 += n;
+      sI += x;
+      sII += xx;
+      sJ += y * n;
+      sJJ += y * y * n;
+      sK += z * n;
+      sKK += z * z * n;
+      sIJ += y * x;
+      sIK += z * x;
+      sJK += y * z * n;
     }
   }
   out.faceCount = fx + fy + fz;

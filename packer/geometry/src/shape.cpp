@@ -59,11 +59,61 @@ class AnalyticShape : public Shape {
   bool inside(const Vec3& p) const final {
     return static_cast<const Derived&>(*this).insideImpl(p);
   }
+  // Rows are filled from the analytic intersection of the line with the shape: no test
+  // per sample. Samples within rounding of the surface may differ from inside().
   void insideRow(const Vec3& p0, const Vec3& step, int n, std::uint8_t* out) const final {
-    const auto& self = static_cast<const Derived&>(*this);
-    for (int s = 0; s < n; ++s) out[s] = self.insideImpl(p0 + static_cast<double>(s) * step);
+    std::fill(out, out + n, std::uint8_t{0});
+    static_cast<const Derived&>(*this).fillRow(p0, step, n, out);
   }
 };
+
+// Parameter interval [t0, t1] of the line p0 + t * step (in sample units).
+struct Span {
+  double t0 = -std::numeric_limits<double>::infinity();
+  double t1 = std::numeric_limits<double>::infinity();
+  bool empty() const { return !(t0 <= t1); }
+  Span operator&(const Span& o) const { return {std::max(t0, o.t0), std::min(t1, o.t1)}; }
+};
+constexpr Span kNone{1, 0};
+
+// Where |a + t b| <= h (one coordinate slab).
+Span slab(double a, double b, double h) {
+  if (std::abs(b) < 1e-300) return std::abs(a) <= h ? Span{} : kNone;
+  double u = (-h - a) / b, v = (h - a) / b;
+  if (u > v) std::swap(u, v);
+  return {u, v};
+}
+
+// Where A t^2 + B t + C <= 0 for A >= 0 (a quadric along the line).
+Span quadric(double A, double B, double C) {
+  if (A < 1e-300) {
+    if (std::abs(B) < 1e-300) return C <= 0 ? Span{} : kNone;
+    return B > 0 ? Span{-std::numeric_limits<double>::infinity(), -C / B}
+                 : Span{-C / B, std::numeric_limits<double>::infinity()};
+  }
+  const double disc = B * B - 4 * A * C;
+  if (disc < 0) return kNone;
+  // Numerically stable roots.
+  const double q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
+  double r0 = q / A, r1 = q != 0 ? C / q : r0;
+  if (r0 > r1) std::swap(r0, r1);
+  return {r0, r1};
+}
+
+// Where x^2 + y^2 <= r^2 along the line (infinite cylinder around z, centre (cx, cy)).
+Span disc(const Vec3& p0, const Vec3& step, double cx, double cy, double r) {
+  const double ax = p0.x() - cx, ay = p0.y() - cy;
+  return quadric(step.x() * step.x() + step.y() * step.y(), 2 * (ax * step.x() + ay * step.y()),
+                 ax * ax + ay * ay - r * r);
+}
+
+// Sets out[s] = v for the integer samples s in the span, clipped to [0, n).
+void paint(const Span& sp, int n, std::uint8_t* out, std::uint8_t v) {
+  if (sp.empty()) return;
+  const double lo = std::max(sp.t0, -1.0), hi = std::min(sp.t1, static_cast<double>(n));
+  const int s0 = static_cast<int>(std::ceil(lo)), s1 = static_cast<int>(std::floor(hi));
+  for (int s = std::max(s0, 0); s <= std::min(s1, n - 1); ++s) out[s] = v;
+}
 
 // Signed distance of a 2D point q = (a, b) to the rectangle |a| <= ha, |b| <= hb (exact).
 double boxDistance2(double a, double b, double ha, double hb) {
@@ -83,6 +133,9 @@ class Sphere final : public AnalyticShape<Sphere> {
  public:
   explicit Sphere(double d) : r_(d / 2) {}
   bool insideImpl(const Vec3& p) const { return p.squaredNorm() <= r_ * r_; }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    paint(quadric(d.squaredNorm(), 2 * p0.dot(d), p0.squaredNorm() - r_ * r_), n, out, 1);
+  }
   std::string spec() const override { return "sphere:d=" + formatNumber(2 * r_); }
   double volumeMm3() const override { return 4.0 / 3.0 * kPi * r_ * r_ * r_; }
   double surfaceMm2() const override { return 4 * kPi * r_ * r_; }
@@ -106,6 +159,9 @@ class Cylinder final : public AnalyticShape<Cylinder> {
   Cylinder(double d, double l) : r_(d / 2), h_(l / 2) {}
   bool insideImpl(const Vec3& p) const {
     return p.x() * p.x() + p.y() * p.y() <= r_ * r_ && std::abs(p.z()) <= h_;
+  }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    paint(disc(p0, d, 0, 0, r_) & slab(p0.z(), d.z(), h_), n, out, 1);
   }
   std::string spec() const override {
     return "cylinder:d=" + formatNumber(2 * r_) + ",l=" + formatNumber(2 * h_);
@@ -136,6 +192,18 @@ class Ring final : public AnalyticShape<Ring> {
   bool insideImpl(const Vec3& p) const {
     const double rr = p.x() * p.x() + p.y() * p.y();
     return rr <= ro_ * ro_ && rr >= ri_ * ri_ && std::abs(p.z()) <= h_;
+  }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    const Span outer = disc(p0, d, 0, 0, ro_) & slab(p0.z(), d.z(), h_);
+    if (outer.empty()) return;
+    paint(outer, n, out, 1);
+    // The hole is open (rr < ri^2): clear only samples strictly inside it.
+    const Span hole = disc(p0, d, 0, 0, ri_);
+    if (hole.empty()) return;
+    const double lo = std::max(hole.t0, -1.0), hi = std::min(hole.t1, static_cast<double>(n));
+    for (int s = std::max(static_cast<int>(std::floor(lo)) + 1, 0);
+         s <= std::min(static_cast<int>(std::ceil(hi)) - 1, n - 1); ++s)
+      out[s] = insideImpl(p0 + static_cast<double>(s) * d) ? 1 : 0;
   }
   std::string spec() const override {
     return "ring:d=" + formatNumber(2 * ro_) + ",di=" + formatNumber(2 * ri_) +
@@ -170,6 +238,10 @@ class Box final : public AnalyticShape<Box> {
   Box(double x, double y, double z) : h_(x / 2, y / 2, z / 2) {}
   bool insideImpl(const Vec3& p) const {
     return std::abs(p.x()) <= h_.x() && std::abs(p.y()) <= h_.y() && std::abs(p.z()) <= h_.z();
+  }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    paint(slab(p0.x(), d.x(), h_.x()) & slab(p0.y(), d.y(), h_.y()) & slab(p0.z(), d.z(), h_.z()),
+          n, out, 1);
   }
   std::string spec() const override {
     return "box:x=" + formatNumber(2 * h_.x()) + ",y=" + formatNumber(2 * h_.y()) +
@@ -298,6 +370,10 @@ class Ellipsoid final : public AnalyticShape<Ellipsoid> {
   bool insideImpl(const Vec3& p) const {
     return p.x() * p.x() * inv2_.x() + p.y() * p.y() * inv2_.y() + p.z() * p.z() * inv2_.z() <= 1;
   }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    const Vec3 a = p0.cwiseProduct(inv2_), b = d.cwiseProduct(inv2_);
+    paint(quadric(d.dot(b), 2 * p0.dot(b), p0.dot(a) - 1), n, out, 1);
+  }
   std::string spec() const override {
     return "ellipsoid:a=" + formatNumber(ax_.x()) + ",b=" + formatNumber(ax_.y()) +
            ",c=" + formatNumber(ax_.z());
@@ -365,6 +441,12 @@ class Trilobe final : public AnalyticShape<Trilobe> {
     return false;
   }
   bool insideImpl(const Vec3& p) const { return std::abs(p.z()) <= h_ && inside2(p.x(), p.y()); }
+  void fillRow(const Vec3& p0, const Vec3& d, int n, std::uint8_t* out) const {
+    const Span z = slab(p0.z(), d.z(), h_);
+    if (z.empty()) return;
+    for (int i = 0; i < 3; ++i)
+      paint(disc(p0, d, centre_[i].x(), centre_[i].y(), r_) & z, n, out, 1);
+  }
   std::string spec() const override {
     return "trilobe:d=" + formatNumber(2 * (c_ + r_)) + ",dl=" + formatNumber(2 * r_) +
            ",l=" + formatNumber(2 * h_);
