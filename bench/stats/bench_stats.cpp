@@ -148,12 +148,12 @@ int main(int argc, char** argv) {
     std::vector<double> iso;
     const MesResult ri = meanEmptySpaceIsotropic(bed, io, nullProgress(), &offsets, &iso);
     t0 = std::chrono::steady_clock::now();
-    const std::vector<float> field = meanEmptySpaceField(bed, threads);
+    const MesField field = meanEmptySpaceField(bed, threads);
     const double tl = seconds(t0);
     double sumL = 0, sumI = 0, sumAbs = 0;
     std::size_t n = 0;
     for (std::size_t s = 0; s < offsets.size(); ++s) {
-      const double l = field[offsets[s]];
+      const double l = field.meanMm[offsets[s]];
       if (!std::isfinite(l) || !std::isfinite(iso[s])) continue;
       sumL += l;
       sumI += iso[s];

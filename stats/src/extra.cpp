@@ -30,11 +30,16 @@ json lengthJson(const LengthDistribution& d) {
 
 json mesJson(const MesResult& r, const char* method) {
   json j = lengthJson(r.distribution);
+  // The distribution's own (minus-sampling weighted) mean; the lattice path reports as
+  // mean_mm the lower-variance per-direction estimator of the same E[m] (docs/stats.md).
+  j["voxel_mean_mm"] = j["mean_mm"];
+  if (std::string(method) == "lattice-13" && r.distribution.samples)
+    j["mean_mm"] = finiteOrNull(r.directionalMeanMm);
   j["method"] = method;
   j["directions"] = r.directions;
   j["void_voxels"] = r.voidVoxels;
   j["undefined_voxels"] = r.undefinedVoxels;
-  j["cut_chords"] = "excluded";
+  j["window_cuts"] = "minus sampling (docs/stats.md)";
   j["seconds"] = r.seconds;
   return j;
 }

@@ -135,6 +135,8 @@ MesResult meanEmptySpaceIsotropic(const Bed& bed, const MesIsotropicOptions& opt
   progress.report("mean empty space (isotropic)", 0.0);
   const std::vector<Triangle> tris = surfaceTriangles(bed);
   std::vector<double> means(picks.size(), std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> weights(picks.size(), 0.0);
+  const std::array<bool, 3> cutAxes = windowCutAxes(bed);
   if (!tris.empty()) {
     Tree tree(tris.begin(), tris.end());
     tree.build();
@@ -147,11 +149,13 @@ MesResult meanEmptySpaceIsotropic(const Bed& bed, const MesIsotropicOptions& opt
       const Point origin(c.x(), c.y(), c.z());
       RandomStream rng(options.seed, 1 + o);  // keyed by voxel, not by thread
       double sum = 0;
-      int used = 0;
-      for (int d = 0; d < options.directions; ++d) {
+      bool cut = false;
+      // Reach of the chord star (voxels, to the centre of the solid voxel beyond the hit
+      // face) towards − and + along z, y, x: for the minus-sampling weight.
+      double reach[6] = {0, 0, 0, 0, 0, 0};
+      const double centre[3] = {c.z(), c.y(), c.x()};
+      for (int d = 0; d < options.directions && !cut; ++d) {
         const Kernel::Vector_3 u = randomDirection(rng);
-        double chord = 0;
-        bool cut = false;
         for (double sign : {1.0, -1.0}) {
           const auto hit = tree.first_intersection(Ray(origin, sign * u));
           const Point* p = hit ? boost::get<Point>(&hit->first) : nullptr;
@@ -159,17 +163,28 @@ MesResult meanEmptySpaceIsotropic(const Bed& bed, const MesIsotropicOptions& opt
             cut = true;
             break;
           }
-          chord += std::sqrt(CGAL::squared_distance(origin, *p));
+          sum += std::sqrt(CGAL::squared_distance(origin, *p));
+          const double at[3] = {p->z(), p->y(), p->x()};
+          for (int a = 0; a < 3; ++a) {
+            const double t = (at[a] - centre[a]) / l.spacingMm[static_cast<std::size_t>(a)];
+            reach[2 * a] = std::max(reach[2 * a], -t + 0.5);
+            reach[2 * a + 1] = std::max(reach[2 * a + 1], t + 0.5);
+          }
         }
-        if (cut) continue;
-        sum += chord;
-        ++used;
       }
-      if (used > 0) means[static_cast<std::size_t>(s)] = sum / used;
+      if (cut) continue;
+      double w = 1;
+      for (int a = 0; a < 3; ++a) {
+        if (!cutAxes[static_cast<std::size_t>(a)]) continue;
+        const double n = static_cast<double>(l.dims[static_cast<std::size_t>(a)]);
+        w *= n / std::max(1.0, n - std::round(reach[2 * a] + reach[2 * a + 1]));
+      }
+      means[static_cast<std::size_t>(s)] = sum / options.directions;
+      weights[static_cast<std::size_t>(s)] = w;
     }
   }
   for (double m : means) r.undefinedVoxels += std::isnan(m);
-  r.distribution = summarizeLengths(means, width);
+  r.distribution = summarizeLengths(means, width, &weights);
   if (sampleOffsets) *sampleOffsets = picks;
   if (sampleMeans) *sampleMeans = means;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -3,8 +3,10 @@
 /// Mean empty space (REFERENCES.md §4, our definition): for a void voxel x and a direction
 /// u, the chord c(x, u) = distance to the first solid along +u plus along −u (the container
 /// wall counts as solid); m(x) = mean of c over the directions; reported as the
-/// void-volume-weighted distribution of m. Chords cut by the lattice boundary (the analysis
-/// window) are excluded from m(x); a voxel whose chords are all cut has no m.
+/// void-volume-weighted distribution of m. Window cuts: m(x) is kept only when no chord
+/// through x is cut by the lattice boundary, and such a voxel is weighted by the inverse of
+/// the fraction of window translations that keep its whole chord star inside (3D minus
+/// sampling, Miles-Lantuéjoul), along the axes where the window cuts void (docs/stats.md).
 
 #include <array>
 #include <cstdint>
@@ -28,8 +30,24 @@ struct LengthDistribution {
 };
 
 /// Histogram, moments and lognormal fit of positive `values` (mm); bins of `binWidthMm`
-/// from 0. Non-finite and non-positive values are skipped.
-LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm);
+/// from 0. Non-finite and non-positive values are skipped. `weights` (optional, same size)
+/// weight each value; `samples` counts the values used.
+LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm,
+                                    const std::vector<double>* weights = nullptr);
+
+/// Axes (z, y, x) along which the lattice boundary cuts void-in-mask voxels (a void voxel on
+/// one of the two faces normal to the axis): chords can be cut there.
+std::array<bool, 3> windowCutAxes(const Bed& bed);
+
+/// Per-voxel mean empty space and its minus-sampling weight.
+struct MesField {
+  std::vector<float> meanMm;  ///< m(x) (mm); NaN for solid, outside-mask, or any chord cut
+  std::vector<float> weight;  ///< minus-sampling weight (>= 1); 0 where meanMm is NaN
+  /// Mean of m over void voxels from the 13 per-direction point-weighted mean chords
+  /// Σ w ℓ² / Σ w ℓ with 1D minus-sampling weights w = 1/Σ_lines(L − ℓ − 1) (linearity: E[m] is
+  /// the mean over directions of E[c(x, u)]); NaN when a direction has no whole chord.
+  double directionalMeanMm = 0;
+};
 
 /// Options of the lattice mean-empty-space path.
 struct MesLatticeOptions {
@@ -42,8 +60,9 @@ struct MesLatticeOptions {
 /// Result of a mean-empty-space computation.
 struct MesResult {
   LengthDistribution distribution;  ///< distribution of m over void voxels
+  double directionalMeanMm = 0;     ///< lattice path: MesField::directionalMeanMm
   std::size_t voidVoxels = 0;       ///< void voxels inside the mask
-  std::size_t undefinedVoxels = 0;  ///< void voxels with every chord cut by the window
+  std::size_t undefinedVoxels = 0;  ///< void voxels (or samples) with a chord cut by the window
   int directions = 0;               ///< directions per voxel
   double seconds = 0;               ///< wall time of the computation
 };
@@ -51,10 +70,8 @@ struct MesResult {
 /// The 13 lattice line directions (k, j, i steps), one per ± pair.
 const std::vector<std::array<int, 3>>& latticeDirections();
 
-/// Per-voxel m(x) (mm) along the 13 lattice directions by run-length scans, O(N) each;
-/// NaN for solid, outside-mask and all-cut voxels.
-std::vector<float> meanEmptySpaceField(const Bed& bed, int threads,
-                                       Progress& progress = nullProgress());
+/// Per-voxel m(x) (mm) along the 13 lattice directions by run-length scans, O(N) each.
+MesField meanEmptySpaceField(const Bed& bed, int threads, Progress& progress = nullProgress());
 
 /// Mean empty space by the lattice path.
 MesResult meanEmptySpaceLattice(const Bed& bed, const MesLatticeOptions& options,
@@ -71,8 +88,10 @@ struct MesIsotropicOptions {
 
 /// Mean empty space by isotropic rays shot from sampled void voxel centres against the
 /// surface of the digital solid (voxel faces between void-in-mask and the rest) with a
-/// CGAL AABB tree. A ray leaving the lattice without a hit is a cut chord (excluded).
-/// `sampleOffsets` (optional) receives the voxel offsets sampled, `sampleMeans` their m.
+/// CGAL AABB tree. A ray leaving the lattice without a hit is a cut chord; window cuts are
+/// handled as in the lattice path (minus-sampling weights).
+/// `sampleOffsets` (optional) receives the voxel offsets sampled, `sampleMeans` their m
+/// (NaN when cut).
 MesResult meanEmptySpaceIsotropic(const Bed& bed, const MesIsotropicOptions& options,
                                   Progress& progress = nullProgress(),
                                   std::vector<std::size_t>* sampleOffsets = nullptr,
