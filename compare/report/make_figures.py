@@ -73,6 +73,10 @@ def fig_axial(beds, rep, out):
         if d is None or d["x"].size == 0:
             continue
         (ln,) = ax1.plot(d["x"], d["y"], label=label(bed), **line_style(bed))
+        kept = d["x"][d["e"] > 0.5]
+        if bed["role"] == "reference" and kept.size:
+            # Slices outside the shaded band are the trimmed bed ends (not in m, s or KS).
+            ax1.axvspan(kept.min(), kept.max(), color="0.9", zorder=0)
         used = d["y"][(d["e"] > 0.5) & np.isfinite(d["y"])]
         if used.size == 0:
             continue
@@ -124,18 +128,23 @@ def load_image(rep, fname):
 
 
 def fig_images(beds, rep, out, column, cmap_name, vmin, vmax, title, png, rowlabel):
-    n = len(beds)
-    fig, axes = plt.subplots(1, n, figsize=(3.3 * n + 0.8, 4.4), squeeze=False)
+    images = [load_image(rep, bed[column]) for bed in beds]
+    # Panel height follows the data's aspect ratio so that no space is wasted.
+    ratios = [abs(e[3] - e[2]) / max(abs(e[1] - e[0]), 1e-9) for _, e, _ in images]
+    panel_w = 3.6
+    fig_h = min(12.0, max(2.5, panel_w * max(ratios) + 1.3))
+    fig, axes = plt.subplots(1, len(beds), figsize=(panel_w * len(beds) + 1.2, fig_h),
+                             squeeze=False, layout="constrained")
     cmap = matplotlib.colormaps[cmap_name].copy()
     cmap.set_bad("#d8d8e8")
     im = None
-    for ax, bed in zip(axes[0], beds):
-        arr, ext, meta = load_image(rep, bed[column])
+    for n, (ax, bed, (arr, ext, meta)) in enumerate(zip(axes[0], beds, images)):
         im = ax.imshow(np.ma.masked_invalid(arr), origin="lower", extent=ext, cmap=cmap,
                        vmin=vmin, vmax=vmax, interpolation="nearest", aspect="equal")
         ax.set_title(label(bed), fontsize=9)
         ax.set_xlabel("x (mm)")
-        ax.set_ylabel(rowlabel)
+        if n == 0:
+            ax.set_ylabel(rowlabel)
     fig.suptitle(title)
     if im is not None:
         fig.colorbar(im, ax=list(axes[0]), shrink=0.8)
