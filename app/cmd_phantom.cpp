@@ -46,7 +46,7 @@ class PhantomCommand final : public Command {
     sub.add_option("--voxel-size", o_.voxelSizeMm, "output voxel size in mm (default: the bed's)")
         ->check(CLI::PositiveNumber);
     sub.add_option("--wall-mm", o_.wallThicknessMm,
-                   "container wall thickness drawn outside the mask, mm (default 2 voxels)")
+                   "container wall thickness drawn outside the mask, mm (default 4 voxels)")
         ->check(CLI::NonNegativeNumber);
     sub.add_option("--seed", o_.seed, "noise and bias seed")->required();
     sub.add_option("--pixel-type", pixel_, "float32, uint16 or uint8")

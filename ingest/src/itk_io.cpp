@@ -139,7 +139,8 @@ std::vector<std::string> registerFactories() {
   std::vector<std::string> names;
   for (auto* f : itk::ObjectFactoryBase::GetRegisteredFactories())
     for (const auto& o : f->GetClassOverrideWithNames())
-      if (lower(o).find("imageio") != std::string::npos) names.push_back(o);
+      if (lower(o).find("imageio") != std::string::npos)
+        names.push_back(o.rfind("itk", 0) == 0 ? o.substr(3) : o);
   std::sort(names.begin(), names.end());
   names.erase(std::unique(names.begin(), names.end()), names.end());
   return names;

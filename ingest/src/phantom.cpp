@@ -68,7 +68,7 @@ PhantomLevels phantomLevels(Modality m) {
   // Arbitrary units chosen to fit uint16 output. MRI: only water gives signal. XMT: air
   // (pores and outside) attenuates least, the glass wall a little less than the pellets.
   if (m == Modality::Mri) return {1000.0f, 0.0f, 0.0f, 0.0f};
-  return {200.0f, 1000.0f, 800.0f, 200.0f};
+  return {200.0f, 1000.0f, 900.0f, 200.0f};
 }
 
 void gaussianBlur(Grid<float>& image, double sigmaMm, int threads) {
@@ -93,7 +93,7 @@ Grid<float> makePhantom(const Bed& bed, const PhantomOptions& o, int threads, Pr
   const int wallVox =
       o.wallThicknessMm > 0.0
           ? std::max(1, static_cast<int>(std::lround(o.wallThicknessMm / l.spacingMm[2])))
-          : 2;
+          : 4;
   for (std::int64_t k = 0; k < l.nz(); ++k)
     for (std::int64_t j = 0; j < l.ny(); ++j)
       for (std::int64_t i = 0; i < l.nx(); ++i) {

@@ -21,7 +21,7 @@ struct PhantomOptions {
   double blurMm = 0.0;        ///< Gaussian blur sigma in mm, >= 0 (point spread of the scanner)
   double biasFraction = 0.0;  ///< bias field amplitude: gain in [1 - F, 1 + F], 0 <= F < 1
   double voxelSizeMm = 0.0;   ///< > 0: output on this isotropic voxel (same box); 0 = bed lattice
-  double wallThicknessMm = 0.0;  ///< container wall drawn outside the mask; 0 = 2 bed voxels
+  double wallThicknessMm = 0.0;  ///< container wall drawn outside the mask; 0 = 4 bed voxels
   std::uint64_t seed = 1;        ///< noise and bias field seed
 };
 
