@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <vector>
 
 #include "voxpack/core/errors.hpp"
 
@@ -40,6 +41,16 @@ struct Fftw<double> {
   static Plan c2r(int n0, int n1, int n2, Complex* in, double* out) {
     return fftw_plan_dft_c2r_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
   }
+  using Dim = fftw_iodim64;
+  static Plan r2cMany(const Dim& d, int hr, const Dim* h, double* in, Complex* out) {
+    return fftw_plan_guru64_dft_r2c(1, &d, hr, h, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2rMany(const Dim& d, int hr, const Dim* h, Complex* in, double* out) {
+    return fftw_plan_guru64_dft_c2r(1, &d, hr, h, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2cMany(const Dim& d, int hr, const Dim* h, Complex* io, int sign) {
+    return fftw_plan_guru64_dft(1, &d, hr, h, io, io, sign, FFTW_ESTIMATE);
+  }
   static void execute(Plan p) { fftw_execute(p); }
   static void destroy(Plan p) { fftw_destroy_plan(p); }
 };
@@ -55,6 +66,16 @@ struct Fftw<float> {
   }
   static Plan c2r(int n0, int n1, int n2, Complex* in, float* out) {
     return fftwf_plan_dft_c2r_3d(n0, n1, n2, in, out, FFTW_ESTIMATE);
+  }
+  using Dim = fftwf_iodim64;
+  static Plan r2cMany(const Dim& d, int hr, const Dim* h, float* in, Complex* out) {
+    return fftwf_plan_guru64_dft_r2c(1, &d, hr, h, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2rMany(const Dim& d, int hr, const Dim* h, Complex* in, float* out) {
+    return fftwf_plan_guru64_dft_c2r(1, &d, hr, h, in, out, FFTW_ESTIMATE);
+  }
+  static Plan c2cMany(const Dim& d, int hr, const Dim* h, Complex* io, int sign) {
+    return fftwf_plan_guru64_dft(1, &d, hr, h, io, io, sign, FFTW_ESTIMATE);
   }
   static void execute(Plan p) { fftwf_execute(p); }
   static void destroy(Plan p) { fftwf_destroy_plan(p); }
@@ -76,16 +97,19 @@ class PaddedCorrelator {
     initFftwThreads();
     std::lock_guard<std::mutex> lock(plannerMutex());
     Fftw<R>::threads(threads_);
-    auto* spectrum = reinterpret_cast<typename Fftw<R>::Complex*>(buffer_);
-    const int p0 = static_cast<int>(padded_[0]), p1 = static_cast<int>(padded_[1]),
-              p2 = static_cast<int>(padded_[2]);
-    forward_ = Fftw<R>::r2c(p0, p1, p2, buffer_, spectrum);
-    backward_ = Fftw<R>::c2r(p0, p1, p2, spectrum, buffer_);
+    try {
+      makePlans();
+    } catch (...) {
+      for (auto p : forward_) Fftw<R>::destroy(p);
+      for (auto p : backward_) Fftw<R>::destroy(p);
+      Fftw<R>::release(buffer_);
+      throw;
+    }
   }
   ~PaddedCorrelator() {
     std::lock_guard<std::mutex> lock(plannerMutex());
-    if (forward_) Fftw<R>::destroy(forward_);
-    if (backward_) Fftw<R>::destroy(backward_);
+    for (auto p : forward_) Fftw<R>::destroy(p);
+    for (auto p : backward_) Fftw<R>::destroy(p);
     Fftw<R>::release(buffer_);
   }
   PaddedCorrelator(const PaddedCorrelator&) = delete;
@@ -109,7 +133,7 @@ class PaddedCorrelator {
         for (; i < s; ++i) row[i] = R(0);
       }
     }
-    Fftw<R>::execute(forward_);
+    for (auto p : forward_) Fftw<R>::execute(p);
     // |F|² in place: the autocorrelation's spectrum (Wiener-Khinchin).
     const std::int64_t pairs = static_cast<std::int64_t>(count_ / 2);
 #pragma omp parallel for num_threads(threads_) schedule(static)
@@ -118,7 +142,7 @@ class PaddedCorrelator {
       buf[2 * c] = re * re + im * im;
       buf[2 * c + 1] = R(0);
     }
-    Fftw<R>::execute(backward_);
+    for (auto p : backward_) Fftw<R>::execute(p);
     LagGrid out;
     out.maxLag = maxLag_;
     const std::int64_t hz = maxLag_[0], hy = maxLag_[1], hx = maxLag_[2];
@@ -147,8 +171,59 @@ class PaddedCorrelator {
   std::int64_t rowStride_ = 0;
   std::size_t count_ = 0;
   R* buffer_ = nullptr;
-  typename Fftw<R>::Plan forward_ = nullptr;
-  typename Fftw<R>::Plan backward_ = nullptr;
+  std::vector<typename Fftw<R>::Plan> forward_, backward_;
+
+  // Separable 1D passes that skip what is known to be zero or not needed (docs/stats.md):
+  // forward, x only on the n0·n1 rows holding data, y only on the n0 planes holding data,
+  // then z everywhere; backward, z everywhere, then y only on the 2hz+1 planes of the lags
+  // reported, x only on their 2hy+1 rows. Plans are made once and reused for every field.
+  void makePlans() {
+    using Dim = typename Fftw<R>::Dim;
+    using Complex = typename Fftw<R>::Complex;
+    const std::int64_t p0 = padded_[0], p1 = padded_[1], p2 = padded_[2];
+    const std::int64_t h = p2 / 2 + 1, s = rowStride_;
+    const std::int64_t n0 = dims_[0], n1 = dims_[1];
+    auto* c = reinterpret_cast<Complex*>(buffer_);
+    auto check = [](typename Fftw<R>::Plan p) {
+      if (!p) throw InternalError("S2: FFTW could not plan a transform");
+      return p;
+    };
+    {
+      const Dim d{p2, 1, 1};
+      const Dim many[2] = {{n0, p1 * s, p1 * h}, {n1, s, h}};
+      forward_.push_back(check(Fftw<R>::r2cMany(d, 2, many, buffer_, c)));
+    }
+    {
+      const Dim d{p1, h, h};
+      const Dim many[2] = {{n0, p1 * h, p1 * h}, {h, 1, 1}};
+      forward_.push_back(check(Fftw<R>::c2cMany(d, 2, many, c, FFTW_FORWARD)));
+    }
+    const Dim dz{p0, p1 * h, p1 * h};
+    const Dim zmany[2] = {{p1, h, h}, {h, 1, 1}};
+    forward_.push_back(check(Fftw<R>::c2cMany(dz, 2, zmany, c, FFTW_FORWARD)));
+    backward_.push_back(check(Fftw<R>::c2cMany(dz, 2, zmany, c, FFTW_BACKWARD)));
+    // Lag groups: [0, h_a] and [P_a − h_a, P_a − 1] on z and y.
+    const std::int64_t hz = maxLag_[0], hy = maxLag_[1];
+    const std::pair<std::int64_t, std::int64_t> planes[2] = {{0, hz + 1}, {p0 - hz, hz}};
+    const std::pair<std::int64_t, std::int64_t> rows[2] = {{0, hy + 1}, {p1 - hy, hy}};
+    for (const auto& [first, count] : planes) {
+      if (count <= 0) continue;
+      const Dim d{p1, h, h};
+      const Dim many[2] = {{count, p1 * h, p1 * h}, {h, 1, 1}};
+      backward_.push_back(check(Fftw<R>::c2cMany(d, 2, many, c + first * p1 * h, FFTW_BACKWARD)));
+    }
+    for (const auto& [first, count] : planes) {
+      if (count <= 0) continue;
+      for (const auto& [row, rowCount] : rows) {
+        if (rowCount <= 0) continue;
+        const Dim d{p2, 1, 1};
+        const Dim many[2] = {{count, p1 * h, p1 * s}, {rowCount, h, s}};
+        const std::int64_t offset = first * p1 + row;
+        backward_.push_back(
+            check(Fftw<R>::c2rMany(d, 2, many, c + offset * h, buffer_ + offset * s)));
+      }
+    }
+  }
 };
 
 Dims paddedDims(const Dims& dims, const Dims& maxLag) {
