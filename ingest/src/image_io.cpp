@@ -239,6 +239,17 @@ std::vector<fs::path> numericOrder(std::vector<fs::path> files) {
   return files;
 }
 
+void writeDicomSeries(const fs::path& dir, const Grid<float>& image) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw IoError(dir.string() + ": not a folder");
+  bridge::Raw<float> raw;
+  raw.dims = image.lattice().dims;
+  raw.spacing = image.lattice().spacingMm;
+  raw.origin = image.lattice().originMm;
+  raw.data = image.values();
+  bridge::writeDicomSeries(dir.string(), raw);
+}
+
 std::vector<std::string> registeredImageIOs() { return bridge::registerFactories(); }
 
 Volume readVolume(const fs::path& input, const ReadOptions& options, Progress& progress) {

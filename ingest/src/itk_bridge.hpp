@@ -51,6 +51,9 @@ bool canWrite(const std::string& file);
 void write(const std::string& file, const Raw<float>& image, int pixelType,
            const std::map<std::string, std::string>& metadata);
 
+/// Writes one DICOM file (int16, MR) per z slice into `dir`, one study and series.
+void writeDicomSeries(const std::string& dir, const Raw<float>& image);
+
 /// Curvature anisotropic diffusion in place (unit spacing).
 void curvatureDiffusion(Raw<float>& image, int iterations, double conductance, double timeStep,
                         int threads);

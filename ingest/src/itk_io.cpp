@@ -28,6 +28,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <mutex>
 
 #include "itk_bridge.hpp"
@@ -250,6 +251,58 @@ void write(const std::string& file, const Raw<float>& image, int pixelType,
     }
   } catch (const itk::ExceptionObject& e) {
     throw IoError(file + ": cannot write: " + itkMessage(e));
+  }
+}
+
+void writeDicomSeries(const std::string& dir, const Raw<float>& image) {
+  registerFactories();
+  using Slice = itk::Image<std::int16_t, 3>;
+  // Fixed UIDs under a test root: every slice must carry the same study and series UID
+  // or the series reader splits them; KeepOriginalUID makes GDCM use ours.
+  const std::string root = "1.2.826.0.1.3680043.2.1125.77";
+  const std::string study = root + ".1", series = root + ".2";
+  const auto nx = static_cast<std::size_t>(image.dims[2]),
+             ny = static_cast<std::size_t>(image.dims[1]);
+  for (std::int64_t k = 0; k < image.dims[0]; ++k) {
+    auto img = Slice::New();
+    Slice::SizeType size;
+    size[0] = nx;
+    size[1] = ny;
+    size[2] = 1;
+    img->SetRegions(Slice::RegionType(size));
+    Slice::SpacingType sp;
+    Slice::PointType org;
+    sp[0] = image.spacing[2];
+    sp[1] = image.spacing[1];
+    sp[2] = image.spacing[0];
+    org[0] = image.origin[2];
+    org[1] = image.origin[1];
+    org[2] = image.origin[0] + static_cast<double>(k) * image.spacing[0];
+    img->SetSpacing(sp);
+    img->SetOrigin(org);
+    img->Allocate();
+    const float* src = image.data.data() + static_cast<std::size_t>(k) * nx * ny;
+    std::transform(src, src + nx * ny, img->GetBufferPointer(),
+                   [](float v) { return static_cast<std::int16_t>(v); });
+    auto& dict = img->GetMetaDataDictionary();
+    itk::EncapsulateMetaData<std::string>(dict, "0008|0060", "MR");
+    itk::EncapsulateMetaData<std::string>(dict, "0020|000d", study);
+    itk::EncapsulateMetaData<std::string>(dict, "0020|000e", series);
+    itk::EncapsulateMetaData<std::string>(dict, "0008|0018", series + "." + std::to_string(k + 1));
+    itk::EncapsulateMetaData<std::string>(dict, "0020|0013", std::to_string(k + 1));
+    auto io = itk::GDCMImageIO::New();
+    io->KeepOriginalUIDOn();
+    auto writer = itk::ImageFileWriter<Slice>::New();
+    char name[32];
+    std::snprintf(name, sizeof name, "/img%04lld.dcm", static_cast<long long>(k));
+    writer->SetFileName(dir + name);
+    writer->SetImageIO(io);
+    writer->SetInput(img);
+    try {
+      writer->Update();
+    } catch (const itk::ExceptionObject& e) {
+      throw IoError(dir + name + ": cannot write: " + itkMessage(e));
+    }
   }
 }
 

@@ -94,6 +94,20 @@ TEST(IngestIo, MultipageTiffReadsAsVolume) {
   expectSameValues(g, v.image);
 }
 
+TEST(IngestIo, DicomSeriesFolder) {
+  TempDir dir;
+  const Grid<float> g = rampVolume();
+  std::filesystem::create_directory(dir / "dicom");
+  writeDicomSeries(dir / "dicom", g);
+  const Volume v = readVolume(dir / "dicom", {});
+  EXPECT_EQ(v.info.source, "dicom-series");
+  expectSameValues(g, v.image);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(v.image.lattice().spacingMm[a], g.lattice().spacingMm[a], 1e-4) << a;
+    EXPECT_NEAR(v.image.lattice().originMm[a], g.lattice().originMm[a], 1e-4) << a;
+  }
+}
+
 TEST(IngestIo, NumericOrderUsesTheLastNumber) {
   const auto v = numericOrder({"a/img10.tif", "a/img9.tif", "a/img100.tif", "a/img0.tif"});
   EXPECT_EQ(v[0].filename(), "img0.tif");

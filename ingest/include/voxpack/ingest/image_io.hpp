@@ -58,6 +58,10 @@ void writeVolume(const std::filesystem::path& path, const Grid<float>& image, Pi
 void writeSliceSeries(const std::filesystem::path& dir, const std::string& prefix,
                       const std::string& extension, const Grid<float>& image, PixelType type);
 
+/// Writes a DICOM series (int16, one file per z slice, one study/series) into `dir`, for
+/// tests and demonstrations of the DICOM reader.
+void writeDicomSeries(const std::filesystem::path& dir, const Grid<float>& image);
+
 /// Names of the ITK ImageIO classes registered for reading (e.g. "NrrdImageIO").
 std::vector<std::string> registeredImageIOs();
 
