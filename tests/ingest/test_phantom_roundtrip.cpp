@@ -150,3 +150,25 @@ TEST(RealXmt, PorousSteelMatchesPublishedSegmentation) {
   EXPECT_NEAR(phi, refPhi, 0.02);
   EXPECT_GE(agreement, 0.90);
 }
+
+TEST(RoundTrip, SameResultForAnyThreadCount) {
+  const Bed bed = voxpack::test::makeSphereBed(48, 20.0, 5.0, 0.2, 21);
+  PhantomOptions po;
+  po.snr = 8.0;
+  po.blurMm = 0.2;
+  po.biasFraction = 0.2;
+  po.seed = 2;
+  IngestOptions io;
+  io.voidPolarity = VoidPolarity::Bright;
+  io.n4 = true;
+  std::vector<std::uint8_t> first;
+  for (int threads : {1, 2, 3}) {
+    Volume v;
+    v.image = makePhantom(bed, po, threads);
+    const IngestResult r = segmentVolume(std::move(v), io, threads);
+    if (first.empty())
+      first = r.bed.indicator.values();
+    else
+      EXPECT_EQ(r.bed.indicator.values(), first) << threads << " threads";
+  }
+}
