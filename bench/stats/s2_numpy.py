@@ -36,6 +36,7 @@ def main():
         mask = f["mask"][...] if "mask" in f else np.ones_like(ind)
         spacing = np.array(f.attrs["spacing_mm"], dtype=float)
     t0 = time.perf_counter()
+    c0 = time.process_time()
     hmax = [min(a.hmax, n - 1) for n in ind.shape]
     padded = [scipy.fft.next_fast_len(n + h, real=True) for n, h in zip(ind.shape, hmax)]
     num = autocorrelation((ind & mask).astype(np.float64), padded, hmax, a.workers)
@@ -52,7 +53,8 @@ def main():
     ok = sd > 0
     h, s2 = sr[ok] / sd[ok], sn[ok] / sd[ok]
     t = time.perf_counter() - t0
-    print(f"numpy/scipy S2: {t:.2f} s, fft {padded}, phi {s2[0]:.6f}, bins {len(s2)}, "
+    cpu = time.process_time() - c0
+    print(f"numpy/scipy S2: {t:.2f} s, cpu {cpu:.2f} s, fft {padded}, phi {s2[0]:.6f}, bins {len(s2)}, "
           f"s2[10] {s2[10]:.6f}")
     if a.out:
         np.savetxt(a.out, np.c_[h, s2], delimiter=",", header="h_mm,s2", comments="")

@@ -30,6 +30,9 @@ struct S2Options {
   FftPrecision precision = FftPrecision::Double;
   /// Worker threads (>= 1) for FFTW and the lag reduction.
   int threads = 1;
+  /// When every mask slice is the same (a column), compute the pair count exactly as the
+  /// 2D pair count of one slice times (n_z − |h_z|) instead of a 3D FFT pair.
+  bool prismMask = true;
 };
 
 /// One S2 curve: per bin the mean lag (mm), S2, and the pair count summed over the bin.
