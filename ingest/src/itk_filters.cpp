@@ -11,7 +11,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "itk_bridge.hpp"
+#include "itk_convert.hpp"
 #include "voxpack/core/errors.hpp"
 
 namespace voxpack::ingest::bridge {
@@ -20,36 +20,6 @@ namespace {
 using FloatImage = itk::Image<float, 3>;
 using MaskImage = itk::Image<unsigned char, 3>;
 using LabelImage = itk::Image<std::uint32_t, 3>;
-
-// Raw -> ITK image. `physical` = false puts it on unit spacing so that ITK's diffusion
-// time step is in voxel units whatever the spacing in mm.
-template <class T, class S>
-typename itk::Image<T, 3>::Pointer toItk(const Raw<S>& r, bool physical) {
-  using Image = itk::Image<T, 3>;
-  auto img = Image::New();
-  typename Image::SizeType size;
-  typename Image::SpacingType sp;
-  typename Image::PointType org;
-  for (unsigned d = 0; d < 3; ++d) {
-    size[d] = static_cast<itk::SizeValueType>(r.dims[2 - d]);
-    sp[d] = physical ? r.spacing[2 - d] : 1.0;
-    org[d] = physical ? r.origin[2 - d] : 0.0;
-  }
-  img->SetRegions(typename Image::RegionType(size));
-  img->SetSpacing(sp);
-  img->SetOrigin(org);
-  img->Allocate();
-  std::transform(r.data.begin(), r.data.end(), img->GetBufferPointer(),
-                 [](S v) { return static_cast<T>(v); });
-  return img;
-}
-
-std::string itkMessage(const itk::ExceptionObject& e) {
-  std::string d = e.GetDescription();
-  for (char& c : d)
-    if (c == '\n' || c == '\r') c = ' ';
-  return d;
-}
 
 }  // namespace
 

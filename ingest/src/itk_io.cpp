@@ -31,7 +31,7 @@
 #include <cstdio>
 #include <mutex>
 
-#include "itk_bridge.hpp"
+#include "itk_convert.hpp"
 #include "voxpack/core/errors.hpp"
 
 namespace voxpack::ingest::bridge {
@@ -39,14 +39,6 @@ namespace {
 
 using FloatImage3 = itk::Image<float, 3>;
 using FloatImage2 = itk::Image<float, 2>;
-
-std::string itkMessage(const itk::ExceptionObject& e) {
-  std::string d = e.GetDescription();
-  for (char& c : d)
-    if (c == '\n' || c == '\r') c = ' ';
-  while (!d.empty() && d.back() == ' ') d.pop_back();
-  return d;
-}
 
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -86,21 +78,7 @@ template <class T>
 void writeTyped(const std::string& file, const Raw<float>& r,
                 const std::map<std::string, std::string>& metadata) {
   using Image = itk::Image<T, 3>;
-  auto img = Image::New();
-  typename Image::SizeType size;
-  typename Image::SpacingType sp;
-  typename Image::PointType org;
-  for (unsigned d = 0; d < 3; ++d) {
-    size[d] = static_cast<itk::SizeValueType>(r.dims[2 - d]);
-    sp[d] = r.spacing[2 - d];
-    org[d] = r.origin[2 - d];
-  }
-  img->SetRegions(typename Image::RegionType(size));
-  img->SetSpacing(sp);
-  img->SetOrigin(org);
-  img->Allocate();
-  std::transform(r.data.begin(), r.data.end(), img->GetBufferPointer(),
-                 [](float v) { return static_cast<T>(v); });
+  auto img = toItk<T>(r, true);
   auto& dict = img->GetMetaDataDictionary();
   for (const auto& [k, v] : metadata) itk::EncapsulateMetaData<std::string>(dict, k, v);
   auto writer = itk::ImageFileWriter<Image>::New();
