@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cli_runner.hpp"
+#include "stl_fixtures.hpp"
 
 using namespace voxpack::test;
 
@@ -97,4 +98,37 @@ TEST(CliShape, UnwritableOutputExit2) {
   EXPECT_EQ(r.exitCode, 2);
   EXPECT_EQ(countErrorLines(r.err), 1);
   EXPECT_FALSE(std::filesystem::exists("/nonexistent-dir/x.h5"));
+}
+
+// STL shapes through the CLI: a good mesh works; open, garbage and missing STL files are
+// refused with exit 2, one error line naming the file, and no output.
+TEST(CliShape, StlMeshes) {
+  TempDir tmp;
+  // l = 2.1 = 21 voxel layers exactly: at identity the caps are parallel to the lattice
+  // planes and a length off the layer grid would cost up to half a layer (2.5 %).
+  // r = 1.52, not 1.5: a radius of exactly 15 voxels puts 12 lattice points (Pythagorean
+  // triples 9-12-15) per layer on the circle, which a polygon inscribed in it excludes.
+  writeBinaryStl(tmp / "cyl.stl", cylinderTriangles(1.52, 0, 2.1, 64));
+  auto tris = boxTriangles(Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(1, 1, 1));
+  tris.pop_back();
+  writeAsciiStl(tmp / "open.stl", tris);
+  {
+    std::ofstream f(tmp / "garbage.stl");
+    f << "GIF89a not a mesh";
+  }
+  const auto ok = runVoxpack(
+      {"shape", "--shape", "mesh:" + (tmp / "cyl.stl").string(), "--voxel-size", "0.1", "--json"});
+  ASSERT_EQ(ok.exitCode, 0) << ok.err;
+  const auto j = nlohmann::json::parse(ok.out);
+  EXPECT_LT(std::abs(j["volume_rel_error"].get<double>()), 0.01);
+  for (const char* name : {"open.stl", "garbage.stl", "missing.stl"}) {
+    const std::string path = (tmp / name).string();
+    const std::string out = (tmp / "x.h5").string();
+    const auto r =
+        runVoxpack({"shape", "--shape", "mesh:" + path, "--voxel-size", "0.1", "-o", out});
+    EXPECT_EQ(r.exitCode, 2) << name << r.err;
+    EXPECT_EQ(countErrorLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
 }
