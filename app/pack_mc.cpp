@@ -72,8 +72,10 @@ class McMode final : public PackMode {
   void addSwitches(CLI::App& pack) override {
     const auto& keys = mcKeys();
     values_.assign(keys.size(), 0.0);
-    for (std::size_t n = 0; n < keys.size(); ++n)
-      pack.add_option(keys[n].flag, values_[n], keys[n].help);
+    for (std::size_t n = 0; n < keys.size(); ++n) {
+      CLI::Option* opt = pack.add_option(keys[n].flag, values_[n], keys[n].help);
+      if (keys[n].kind == McKey::Integer) opt->type_name("INT");
+    }
   }
 
   int run(const PackScene& scene, const toml::table* table, const CLI::App& pack,
