@@ -1,17 +1,249 @@
-// Placeholder until the dem packing mode lands.
+// voxpack pack --mode dem: the digital DEM mode's flags, its [dem] table of the scene file,
+// and the run (docs/dem.md).
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
 #include "pack_modes.hpp"
+#include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/json_util.hpp"
+#include "voxpack/core/parallel.hpp"
+#include "voxpack/packer/container.hpp"
+#include "voxpack/packer/dem.hpp"
+#include "voxpack/packer/dem_geometry.hpp"
+#include "voxpack/packer/shape.hpp"
 
 namespace voxpack::app {
 namespace {
-class PendingDem final : public PackMode {
+
+using packer::dem::DemOptions;
+
+// One numeric DEM option: its flag, its [dem] key and where it lands in DemOptions.
+struct DemKey {
+  const char* flag;
+  const char* key;
+  const char* help;
+  double DemOptions::*real = nullptr;
+  int DemOptions::*integer = nullptr;
+};
+
+const std::vector<DemKey>& demKeys() {
+  using O = DemOptions;
+  static const std::vector<DemKey> keys{
+      {"--friction", "friction", "DEM: Coulomb friction coefficient mu >= 0 (default 0.5)",
+       &O::friction},
+      {"--restitution", "restitution", "DEM: normal restitution coefficient 0..1 (default 0.5)",
+       &O::restitution},
+      {"--tap-cycles", "tap_cycles", "DEM: taps after the pour settled, 0 = none (default 0)",
+       nullptr, &O::tapCycles},
+      {"--density", "density_g_cm3", "DEM: particle material density, g/cm^3 (default 1.5)",
+       &O::densityGPerCm3},
+      {"--stiffness", "stiffness_n_mm3",
+       "DEM: face stiffness per area and depth, N/mm^3; 0 = auto from --target-overlap",
+       &O::stiffnessNPerMm3},
+      {"--contact-stiffness-cap", "contact_stiffness_cap",
+       "DEM: ceiling of one contact's stiffness, in curved-contact units; 0 = none (default 1)",
+       &O::contactStiffnessCap},
+      {"--target-overlap", "target_overlap",
+       "DEM: auto stiffness: overlap / d under the bed weight (default 0.004)", &O::targetOverlap},
+      {"--time-step", "time_step_s",
+       "DEM: time step in s; 0 = auto; above t_c/10 it is clamped with a warning", &O::timeStepS},
+      {"--time-step-fraction", "time_step_fraction",
+       "DEM: auto time step as a fraction of the contact time t_c, (0, 0.1] (default 1/20)",
+       &O::timeStepFraction},
+      {"--tap-amplitude", "tap_amplitude_mm", "DEM: container lift per tap, mm; 0 = 0.1 d",
+       &O::tapAmplitudeMm},
+      {"--tap-frequency", "tap_frequency_hz",
+       "DEM: a tap is one sine period of this frequency, Hz (default 30)", &O::tapFrequencyHz},
+      {"--tap-rest", "tap_rest_s", "DEM: relaxation after each tap, s (default 0.1)", &O::tapRestS},
+      {"--sleep-time", "sleep_time_s",
+       "DEM: time at rest before a particle sleeps, s (default 0.01)", &O::sleepTimeS},
+      {"--settle-kinetic", "settle_kinetic",
+       "DEM: settled when mean kinetic energy < this * m g d (default 1e-6)", &O::settleKinetic},
+      {"--settle-velocity", "settle_velocity",
+       "DEM: ...and max |v| < this * sqrt(g d) (default 1e-3)", &O::settleVelocity},
+      {"--max-time", "max_time_s", "DEM: cap on simulated time, s (default 20)", &O::maxTimeS},
+      {"--rain-height", "rain_height_d",
+       "DEM: height of the injection zone above the bed, in d (default 4)",
+       &O::rainHeightDiameters},
+      {"--rain-fraction", "rain_volume_fraction",
+       "DEM: solid fraction of one injection batch (default 0.3)", &O::rainVolumeFraction},
+      {"--rain-speed", "rain_speed_mm_s", "DEM: initial downward speed, mm/s (default 0)",
+       &O::rainSpeedMmPerS},
+  };
+  return keys;
+}
+
+packer::dem::ContactModel parseContact(const std::string& text, const std::string& where) {
+  if (text == "voxel") return packer::dem::ContactModel::kVoxel;
+  if (text == "levelset") return packer::dem::ContactModel::kLevelSet;
+  throw InputError(where + ": contact must be voxel or levelset (got '" + text + "')");
+}
+
+bool parseOnOff(const std::string& text, const std::string& where) {
+  if (text == "on" || text == "true" || text == "1") return true;
+  if (text == "off" || text == "false" || text == "0") return false;
+  throw InputError(where + ": expected on or off (got '" + text + "')");
+}
+
+class DemMode final : public PackMode {
  public:
   std::string name() const override { return "dem"; }
-  void addSwitches(CLI::App&) override {}
-  int run(const PackScene&, const toml::table*, const CLI::App&, const GlobalOptions&) override {
-    throw InternalError("pack --mode dem is not available in this build yet");
+
+  void addSwitches(CLI::App& pack) override {
+    const auto& keys = demKeys();
+    values_.assign(keys.size(), 0.0);
+    for (std::size_t n = 0; n < keys.size(); ++n)
+      pack.add_option(keys[n].flag, values_[n], keys[n].help);
+    pack.add_option("--contact", contact_,
+                    "DEM: node force direction: voxel (paper, face normal) or levelset "
+                    "(LS-DEM, exact normal); default voxel");
+    pack.add_option("--sleeping", sleeping_,
+                    "DEM: on/off: particles at rest away from motion are frozen (default on)");
   }
+
+  int run(const PackScene& scene, const toml::table* table, const CLI::App& pack,
+          const GlobalOptions& global) override {
+    const auto t0 = std::chrono::steady_clock::now();
+    DemOptions o;
+    const auto& keys = demKeys();
+    const std::string cfg = scene.config.string();
+    if (table) {
+      for (const auto& [k, node] : *table) {
+        const std::string where = cfg + ":" + std::to_string(node.source().begin.line);
+        if (k.str() == "contact") {
+          const auto v = node.value<std::string>();
+          if (!v) throw InputError(where + ": contact must be a string");
+          o.contact = parseContact(*v, where);
+          continue;
+        }
+        if (k.str() == "sleeping") {
+          const auto v = node.value<bool>();
+          if (!v) throw InputError(where + ": sleeping must be true or false");
+          o.sleeping = *v;
+          continue;
+        }
+        const DemKey* key = nullptr;
+        for (const auto& c : keys)
+          if (k.str() == c.key) key = &c;
+        if (!key)
+          throw InputError(where + ": unknown [dem] key '" + std::string(k.str()) +
+                           "' (see docs/dem.md)");
+        const auto v = node.value<double>();
+        if (!v) throw InputError(where + ": " + key->key + " must be a number");
+        set(o, *key, *v, where + ": " + key->key);
+      }
+    }
+    for (std::size_t n = 0; n < keys.size(); ++n)
+      if (pack.get_option(keys[n].flag)->count() > 0) set(o, keys[n], values_[n], keys[n].flag);
+    if (pack.get_option("--contact")->count() > 0) o.contact = parseContact(contact_, "--contact");
+    if (pack.get_option("--sleeping")->count() > 0)
+      o.sleeping = parseOnOff(sleeping_, "--sleeping");
+    o.threads = resolveThreads(global.threads);
+
+    packer::dem::DemScene ds;
+    std::vector<std::shared_ptr<const packer::Shape>> shapes;
+    double rMax = 0;
+    for (const auto& sf : scene.shapes) {
+      shapes.push_back(packer::parseShape(sf.spec));
+      ds.shapes.push_back(packer::dem::demShape(shapes.back()));
+      ds.fractions.push_back(sf.fraction);
+      rMax = std::max(rMax, shapes.back()->boundingRadiusMm());
+    }
+    const auto container = packer::parseContainer(scene.containerSpec);
+    ds.container = packer::dem::demContainer(container, 2 * rMax);
+    ds.voxelSizeMm = scene.voxelSizeMm;
+    ds.count = scene.count;
+    ds.fillHeightMm = scene.fillHeightMm;
+    ds.seed = scene.seed;
+
+    StderrProgress progress(global.quiet);
+    const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress);
+    Bed bed = packer::dem::demBed(r.particles, shapes, *container, scene.voxelSizeMm,
+                                  scene.supersample, o.threads, progress);
+
+    nlohmann::json prov = scene.provenance;
+    nlohmann::json dem = {
+        {"friction", o.friction},
+        {"restitution", o.restitution},
+        {"tap_cycles", o.tapCycles},
+        {"density_g_cm3", o.densityGPerCm3},
+        {"stiffness_n_mm3", r.stiffnessNPerMm3},
+        {"stiffness_auto", o.stiffnessNPerMm3 == 0},
+        {"target_overlap", o.targetOverlap},
+        {"contact_stiffness_cap", o.contactStiffnessCap},
+        {"time_step_s", r.timeStepS},
+        {"contact_time_s", r.contactTimeS},
+        {"time_step_fraction", o.timeStepFraction},
+        {"contact", o.contact == packer::dem::ContactModel::kVoxel ? "voxel" : "levelset"},
+        {"tap_amplitude_mm", o.tapAmplitudeMm},
+        {"tap_frequency_hz", o.tapFrequencyHz},
+        {"tap_rest_s", o.tapRestS},
+        {"sleeping", o.sleeping},
+        {"sleep_time_s", o.sleepTimeS},
+        {"settle_kinetic", o.settleKinetic},
+        {"settle_velocity", o.settleVelocity},
+        {"max_time_s", o.maxTimeS},
+        {"rain_height_d", o.rainHeightDiameters},
+        {"rain_volume_fraction", o.rainVolumeFraction},
+        {"rain_speed_mm_s", o.rainSpeedMmPerS},
+        {"gravity_mm_s2", o.gravityMmPerS2},
+        {"units", "mm, g, s; double precision"},
+        {"simulated_time_s", r.simulatedTimeS},
+        {"settle_time_s", r.settleTimeS},
+        {"max_overlap_mm", r.maxOverlapMm},
+        {"dem_wall_time_s", r.wallTimeS},
+        {"threads", o.threads},
+        {"steps", r.counters.steps},
+        {"particle_steps", r.counters.particleSteps},
+        {"integrated_particle_steps", r.counters.integratedParticleSteps},
+        {"pair_checks", r.counters.pairChecks},
+        {"pair_evaluations", r.counters.pairEvaluations},
+        {"node_evaluations", r.counters.nodeEvaluations},
+        {"neighbour_rebuilds", r.counters.neighbourRebuilds},
+        {"messages", r.messages}};
+    prov["dem"] = dem;
+    prov["status"] = packer::dem::statusName(r.status);
+    prov["particles"] = bed.particles.size();
+    prov["wall_time_s"] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sanitizeNonFinite(prov);
+    bed.provenance = prov;
+    writeBed(scene.output, bed);
+
+    const BedSummary sum = summarize(bed);
+    if (r.status != packer::dem::DemStatus::kSettled)
+      progress.message(std::string("warning: DEM run ended with status ") +
+                       packer::dem::statusName(r.status));
+    std::cout << std::setprecision(4) << "status " << packer::dem::statusName(r.status) << ", "
+              << bed.particles.size() << " particles, " << r.simulatedTimeS
+              << " s simulated, time step " << r.timeStepS << " s, packing density in container "
+              << sum.packingDensity << ", wall " << prov["wall_time_s"].get<double>() << " s -> "
+              << scene.output.string() << '\n';
+    return 0;
+  }
+
+ private:
+  static void set(DemOptions& o, const DemKey& key, double v, const std::string& where) {
+    if (!std::isfinite(v)) throw InputError(where + " must be a finite number");
+    if (key.real) {
+      o.*key.real = v;
+      return;
+    }
+    if (v != std::floor(v) || std::fabs(v) > 1e9) throw InputError(where + " must be an integer");
+    o.*key.integer = static_cast<int>(v);
+  }
+
+  std::vector<double> values_;
+  std::string contact_ = "voxel";
+  std::string sleeping_ = "on";
 };
+
 }  // namespace
-std::unique_ptr<PackMode> makeDemMode() { return std::make_unique<PendingDem>(); }
+
+std::unique_ptr<PackMode> makeDemMode() { return std::make_unique<DemMode>(); }
+
 }  // namespace voxpack::app

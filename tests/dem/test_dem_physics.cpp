@@ -101,24 +101,30 @@ TEST(DemPhysics, DampedBounceLosesEnergy) {
   EXPECT_GT(h, 3.0 * 0.7 * 0.7 * 0.9);
 }
 
-// A cylinder standing on its flat end: linear contact, overlap = m g / (k A).
+// A cylinder standing on its flat end: linear contact, overlap = m g / K with K = k A, or
+// the contact stiffness ceiling when that is lower.
 TEST(DemPhysics, RestingOverlapIsWeightOverStiffness) {
-  for (auto model : {ContactModel::kVoxel, ContactModel::kLevelSet}) {
-    DemOptions o = baseOptions();
-    o.stiffnessNPerMm3 = 0.01;
-    o.restitution = 0.3;
-    o.contact = model;
-    auto shape = std::make_shared<TestCylinder>(5.4, 3.8);
-    auto sys = oneShape(shape, 0.27, o, std::make_shared<TestBox>(40));
-    sys->addParticle(0, Vec3(0.05, -0.03, 1.9 + 0.002), Quat::Identity());
-    const std::size_t n = static_cast<std::size_t>(0.1 / sys->timeStepS());
-    sys->step(n);
-    const double m = 1.5e-3 * shape->volumeMm3();
-    const double expected = m * kG / (0.01 * 1e6 * kPi * 2.7 * 2.7);
-    const double overlap = 1.9 - sys->position(0).z();
-    EXPECT_NEAR(overlap / expected, 1.0, 0.10) << "model " << static_cast<int>(model);
-    EXPECT_LT(std::abs(sys->velocity(0).z()), 1e-3);
-  }
+  for (double cap : {0.0, 1.0})
+    for (auto model : {ContactModel::kVoxel, ContactModel::kLevelSet}) {
+      DemOptions o = baseOptions();
+      o.stiffnessNPerMm3 = 0.01;
+      o.restitution = 0.3;
+      o.contact = model;
+      o.contactStiffnessCap = cap;
+      auto shape = std::make_shared<TestCylinder>(5.4, 3.8);
+      auto sys = oneShape(shape, 0.27, o, std::make_shared<TestBox>(40));
+      sys->addParticle(0, Vec3(0.05, -0.03, 1.9 + 0.002), Quat::Identity());
+      const std::size_t n = static_cast<std::size_t>(0.1 / sys->timeStepS());
+      sys->step(n);
+      const double m = 1.5e-3 * shape->volumeMm3();
+      double stiffness = 0.01 * 1e6 * kPi * 2.7 * 2.7;  // g/s^2
+      if (cap > 0) stiffness = std::min(stiffness, sys->contactStiffnessCapNPerMm() * 1e6);
+      const double expected = m * kG / stiffness;
+      const double overlap = 1.9 - sys->position(0).z();
+      EXPECT_NEAR(overlap / expected, 1.0, 0.10)
+          << "model " << static_cast<int>(model) << " cap " << cap;
+      EXPECT_LT(std::abs(sys->velocity(0).z()), 1e-3);
+    }
 }
 
 // Two spheres (different sizes, off-centre, with friction): momentum is conserved.

@@ -100,16 +100,20 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   const std::size_t checkSteps = static_cast<std::size_t>(std::max(1.0, std::round(0.002 / dt)));
 
   std::int64_t inserted = 0;
-  double lastBase = -1e300;
+  double lastInsertS = 0;
+  const double batchIntervalS = g > 0 ? std::sqrt(2 * zoneHeight / g) : 0.05;
   bool tapped = false;
   DemStatus status = DemStatus::kTimeCap;
+  double nextStatus = 0.25;
   while (true) {
     // Inject the next batch once the previous one has left its zone.
     if (inserted < count) {
       double maxTop = -1e300;
       for (std::size_t i = 0; i < sys.size(); ++i)
         maxTop = std::max(maxTop, sys.position(i).z() + templates[sys.templateOf(i)].radiusMm);
-      if (inserted == 0 || maxTop < lastBase) {
+      // A batch falls its zone height in sqrt(2 H / g); the next one then starts above
+      // everything, so a pour never drops particles from more than ~H + d/2.
+      if (inserted == 0 || sys.timeS() - lastInsertS >= batchIntervalS) {
         const double base = inserted == 0 ? lo.z() + 0.05 * dMax : maxTop + 0.5 * dMax;
         std::vector<std::pair<Vec3, double>> placed;
         const std::int64_t want = std::min(batch, count - inserted);
@@ -143,7 +147,7 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
           throw InputError(
               "dem: cannot place a particle in the container (is it narrower "
               "than the particle?)");
-        lastBase = base;
+        lastInsertS = sys.timeS();
       }
     }
     sys.step(checkSteps);
@@ -151,6 +155,20 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     if (progress.cancelled()) {
       status = DemStatus::kCancelled;
       break;
+    }
+    if (t >= nextStatus) {
+      nextStatus += 0.25;
+      double vMax = 0, ke = 0;
+      sys.motionMeasures(vMax, ke);
+      std::size_t awake = 0;
+      for (std::size_t i = 0; i < sys.size(); ++i) awake += sys.asleep(i) ? 0 : 1;
+      std::ostringstream m;
+      m << "dem: t " << t << " s, " << inserted << "/" << count << " injected, " << awake
+        << " awake, max |v| " << vMax / vLimit << " x limit, mean KE " << ke / keLimit
+        << " x limit, wall "
+        << std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count()
+        << " s";
+      progress.message(m.str());
     }
     progress.report("dem", inserted < count
                                ? 0.5 * static_cast<double>(inserted) / static_cast<double>(count)

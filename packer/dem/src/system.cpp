@@ -94,6 +94,7 @@ struct DemSystem::Impl {
   std::shared_ptr<const DemContainer> container;
   DemOptions opt;
   double k = 0;                       // face stiffness, g/(mm^2 s^2)
+  double kCap = 0;                    // contact stiffness ceiling, g/s^2 (0 = none)
   double dt = 0;                      // s
   double tc = 0;                      // s
   double zeta = 0;                    // damping ratio from restitution (linear law)
@@ -198,6 +199,11 @@ struct DemSystem::Impl {
     double kSum = 0;
     for (const Hit& h : hits) kSum += h.kw * std::abs(h.dir.dot(nHat));
     if (!(kSum > 0)) return out;
+    // Stiffness ceiling: a wide flat contact (face on face) would otherwise be far stiffer
+    // than the curved contacts the time step is made for; it saturates at kCap instead.
+    const double scale = kCap > 0 && kSum > kCap ? kCap / kSum : 1.0;
+    kSum *= scale;
+    out.elastic *= scale;
     // Local force law F ~ delta^p (p = 1 flat faces, 2 sphere caps) picks the damping
     // ratio that gives the requested restitution for that law (calibrated at start-up).
     const double p = springMag > 0 ? kSum * out.maxDepth / springMag : 1.0;
@@ -209,7 +215,7 @@ struct DemSystem::Impl {
     for (const Hit& h : hits) {
       const Vec3 vrel = a.v + a.w.cross(h.p - a.x) - b.v - b.w.cross(h.p - b.x);
       const double c = std::abs(h.dir.dot(nHat));
-      const double fn = h.kw * (h.depth - c * etaPerK * vrel.dot(h.dir));
+      const double fn = scale * h.kw * (h.depth - c * etaPerK * vrel.dot(h.dir));
       const Vec3 f = fn * h.dir;
       force += f;
       torque += (h.p - a.x).cross(f);
@@ -584,6 +590,8 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
     throw InputError("--restitution must be in 0..1 (got " + std::to_string(o.restitution) + ")");
   if (!(o.stiffnessNPerMm3 >= 0) || !std::isfinite(o.stiffnessNPerMm3))
     throw InputError("--stiffness must be >= 0 (0 = auto)");
+  if (!(o.contactStiffnessCap >= 0) || !std::isfinite(o.contactStiffnessCap))
+    throw InputError("--contact-stiffness-cap must be >= 0 (0 = none)");
   if (!(o.targetOverlap > 0 && o.targetOverlap < 0.2))
     throw InputError("--target-overlap must be in (0, 0.2)");
   if (!(o.timeStepS >= 0) || !std::isfinite(o.timeStepS))
@@ -617,8 +625,14 @@ std::string DemSystem::resolve(double bedHeightMm) {
   double d = 0, mStar = 1e300, flat = 0;
   for (const auto& tp : s.tmpl) {
     d = std::max(d, tp.diameterMm);
-    // Rotation can make a contact stiffer than translation: effective mass I / r^2.
-    const double mEff = std::min(tp.massG, tp.inertiaG.minCoeff() / (tp.radiusMm * tp.radiusMm));
+    // A contact off the centre line also turns the particle: 1/m_eff = 1/m + |r x n|^2 / I
+    // at the worst surface node (a sphere's normal forces have no lever: m_eff = m).
+    double lever = 0;
+    for (std::size_t n = 0; n < tp.nodeP.size(); ++n) {
+      const Vec3 rn = tp.nodeP[n].cross(tp.nodeNormal[n]);
+      lever = std::max(lever, rn.cwiseProduct(rn).cwiseQuotient(tp.inertiaG).sum());
+    }
+    const double mEff = 1.0 / (1.0 / tp.massG + lever);
     mStar = std::min(mStar, 0.5 * mEff);
     flat = std::max(flat, tp.flatAreaMm2);
   }
@@ -638,7 +652,10 @@ std::string DemSystem::resolve(double bedHeightMm) {
   const double v2 = 2 * g * fall + o.rainSpeedMmPerS * o.rainSpeedMmPerS;
   const double deltaImpact = std::cbrt(3 * mStar * v2 / (2 * s.k * kPi * dRef / 4));
   const double deltaMax = std::max(5 * o.targetOverlap * dRef, deltaImpact);
-  const double kContact = std::max(s.k * flat, 2 * s.k * kPi * (dRef / 4) * deltaMax);
+  const double kCurved = 2 * s.k * kPi * (dRef / 4) * deltaMax;
+  s.kCap = o.contactStiffnessCap > 0 ? o.contactStiffnessCap * kCurved : 0;
+  const double kContact =
+      s.kCap > 0 ? std::min(s.kCap, std::max(s.k * flat, kCurved)) : std::max(s.k * flat, kCurved);
   s.tc = kPi * std::sqrt(mStar / kContact);
   std::string warning;
   const double dtMax = s.tc / 10;
@@ -722,6 +739,7 @@ double DemSystem::maxOverlapMm() const { return impl_->maxDepth; }
 double DemSystem::timeStepS() const { return impl_->dt; }
 double DemSystem::contactTimeS() const { return impl_->tc; }
 double DemSystem::stiffnessNPerMm3() const { return impl_->k * 1e-6; }
+double DemSystem::contactStiffnessCapNPerMm() const { return impl_->kCap * 1e-6; }
 double DemSystem::timeS() const { return impl_->t; }
 const DemCounters& DemSystem::counters() const { return impl_->counters; }
 const DemOptions& DemSystem::options() const { return impl_->opt; }

@@ -66,9 +66,13 @@ struct DemOptions {
   /// Face stiffness per unit area and unit depth (N/mm^3): F = k * area * depth. 0 = auto
   /// from targetOverlap under the estimated bed weight.
   double stiffnessNPerMm3 = 0;
+  /// Ceiling of one contact's stiffness dF/d(delta), as a multiple of a curved (sphere-like)
+  /// contact's at the deepest expected overlap; wide flat contacts saturate there so the
+  /// time step need not resolve them. 0 = no ceiling (the step then follows the flattest face).
+  double contactStiffnessCap = 1.0;
   double targetOverlap = 0.004;        ///< auto stiffness: overlap / d under the bed weight
   double timeStepS = 0;                ///< requested step (s); 0 = timeStepFraction * t_c
-  double timeStepFraction = 1.0 / 30;  ///< step as a fraction of the contact time t_c (1/50..1/10)
+  double timeStepFraction = 1.0 / 20;  ///< step as a fraction of the contact time t_c (1/50..1/10)
   ContactModel contact = ContactModel::kVoxel;  ///< direction of node forces
   double gravityMmPerS2 = 9810.0;               ///< gravity magnitude, acting along -z
   double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (elastic spheres)
@@ -173,6 +177,7 @@ class DemSystem {
   double timeStepS() const;                                ///< chosen step (s)
   double contactTimeS() const;                             ///< t_c of the reference contact (s)
   double stiffnessNPerMm3() const;                         ///< chosen face stiffness
+  double contactStiffnessCapNPerMm() const;                ///< contact stiffness ceiling (0 = none)
   double timeS() const;                                    ///< simulated time (s)
   const DemCounters& counters() const;                     ///< work counters
   const DemOptions& options() const;                       ///< resolved options

@@ -1,0 +1,133 @@
+// Whole runs on small scenes: thread invariance, extremes, geometry glue.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "analytic.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/random.hpp"
+#include "voxpack/packer/dem_geometry.hpp"
+
+namespace voxpack::test {
+namespace {
+
+using packer::dem::DemOptions;
+using packer::dem::DemResult;
+using packer::dem::DemScene;
+using packer::dem::runDem;
+
+DemScene smallScene(int count, std::uint64_t seed = 7) {
+  DemScene s;
+  s.shapes = {std::make_shared<TestSphere>(3.0)};
+  s.fractions = {1.0};
+  s.container = std::make_shared<TestColumn>(12.0);
+  s.voxelSizeMm = 0.3;
+  s.count = count;
+  s.seed = seed;
+  return s;
+}
+
+bool allFiniteInside(const DemResult& r, const DemContainer& c) {
+  for (std::size_t i = 0; i < r.particles.size(); ++i) {
+    const Vec3& p = r.particles.positionMm[i];
+    if (!p.allFinite() || !r.particles.orientation[i].coeffs().allFinite()) return false;
+    if (c.wallDistanceMm(p) <= 0) return false;
+  }
+  return true;
+}
+
+// Forces are summed per pair slot and then in pair order: any thread count, same bits.
+TEST(DemPack, IdenticalForAnyThreadCount) {
+  DemOptions o;
+  o.maxTimeS = 0.12;
+  o.friction = 0.3;
+  DemResult r[2];
+  for (int t = 0; t < 2; ++t) {
+    o.threads = t + 1;
+    r[t] = runDem(smallScene(24), o, nullProgress());
+  }
+  ASSERT_EQ(r[0].particles.size(), r[1].particles.size());
+  ASSERT_GT(r[0].particles.size(), 10u);
+  for (std::size_t i = 0; i < r[0].particles.size(); ++i) {
+    EXPECT_EQ(r[0].particles.positionMm[i], r[1].particles.positionMm[i]) << i;
+    EXPECT_EQ(r[0].particles.orientation[i].coeffs(), r[1].particles.orientation[i].coeffs());
+  }
+}
+
+TEST(DemPack, SameSeedSameBedOtherSeedOtherBed) {
+  DemOptions o;
+  o.maxTimeS = 0.05;
+  const DemResult a = runDem(smallScene(12, 3), o, nullProgress());
+  const DemResult b = runDem(smallScene(12, 3), o, nullProgress());
+  const DemResult c = runDem(smallScene(12, 4), o, nullProgress());
+  EXPECT_EQ(a.particles.positionMm, b.particles.positionMm);
+  EXPECT_NE(a.particles.positionMm, c.particles.positionMm);
+}
+
+// Stiffness x1000: the step shrinks by ~sqrt(1000) and the run stays finite and contained.
+TEST(DemPack, StiffnessTimesThousandShrinksTheStep) {
+  DemOptions o;
+  o.maxTimeS = 0.03;
+  o.stiffnessNPerMm3 = 0.5;
+  const DemResult soft = runDem(smallScene(8), o, nullProgress());
+  o.stiffnessNPerMm3 = 500;
+  o.maxTimeS = 0.004;
+  const DemResult stiff = runDem(smallScene(8), o, nullProgress());
+  EXPECT_LT(stiff.timeStepS, soft.timeStepS / 10);
+  EXPECT_TRUE(allFiniteInside(soft, *smallScene(1).container));
+  EXPECT_TRUE(allFiniteInside(stiff, *smallScene(1).container));
+}
+
+TEST(DemPack, ExtremeRestitutionAndFrictionStayFiniteAndContained) {
+  for (double e : {0.0, 1.0})
+    for (double mu : {0.0, 10.0}) {
+      DemOptions o;
+      o.restitution = e;
+      o.friction = mu;
+      o.maxTimeS = 0.1;
+      const DemResult r = runDem(smallScene(10), o, nullProgress());
+      EXPECT_EQ(r.particles.size(), 10u);
+      EXPECT_TRUE(allFiniteInside(r, *smallScene(1).container)) << "e " << e << " mu " << mu;
+      EXPECT_LT(r.maxOverlapMm, 0.3) << "e " << e << " mu " << mu;
+    }
+}
+
+TEST(DemPack, RefusesBadOptions) {
+  DemOptions o;
+  o.restitution = 1.5;
+  EXPECT_THROW(runDem(smallScene(2), o, nullProgress()), InputError);
+  o = DemOptions{};
+  o.friction = -0.1;
+  EXPECT_THROW(runDem(smallScene(2), o, nullProgress()), InputError);
+  o = DemOptions{};
+  o.timeStepS = 1.0;  // far above stability: clamped with a warning, not refused
+  o.maxTimeS = 0.01;
+  const DemResult r = runDem(smallScene(2), o, nullProgress());
+  ASSERT_FALSE(r.messages.empty());
+  EXPECT_NE(r.messages.front().find("clamped"), std::string::npos);
+}
+
+// The DEM's own signed distances of spheres and cylinders agree with the geometry module.
+TEST(DemGeometry, FastSignedDistanceMatchesGeometry) {
+  for (const char* spec : {"sphere:d=3", "cylinder:d=5.4,l=3.8"}) {
+    const auto shape = packer::parseShape(spec);
+    const auto dem = packer::dem::demShape(shape);
+    RandomStream rs(1, 0);
+    for (int n = 0; n < 2000; ++n) {
+      const Vec3 p(rs.uniform(-4, 4), rs.uniform(-4, 4), rs.uniform(-4, 4));
+      EXPECT_NEAR(dem->signedDistanceMm(p), shape->signedDistanceMm(p), 1e-9) << spec;
+      EXPECT_EQ(dem->inside(p), shape->inside(p));
+    }
+  }
+}
+
+TEST(DemGeometry, OpenTopCylinderContainer) {
+  const auto c = packer::dem::demContainer(packer::parseContainer("cylinder:d=20,h=30"), 3.0);
+  EXPECT_NEAR(c->wallDistanceMm(Vec3(0, 0, 5)), 5.0, 1e-9);     // floor nearest
+  EXPECT_NEAR(c->wallDistanceMm(Vec3(8, 0, 15)), 2.0, 1e-9);    // side wall
+  EXPECT_NEAR(c->wallDistanceMm(Vec3(0, 0, 100)), 10.0, 1e-9);  // open top: side wall
+  EXPECT_LT(c->wallDistanceMm(Vec3(11, 0, 100)), 0.0);
+}
+
+}  // namespace
+}  // namespace voxpack::test
