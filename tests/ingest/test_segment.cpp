@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/random.hpp"
 #include "voxpack/ingest/column.hpp"
 #include "voxpack/ingest/filters.hpp"
 #include "voxpack/ingest/phantom.hpp"
@@ -211,4 +212,38 @@ TEST(Phantom, BlurPreservesMeanAndResampleKeepsBox) {
   const auto coarse = makePhantom(bed, o, 2);
   EXPECT_EQ(coarse.lattice().dims, (std::array<std::int64_t, 3>{10, 10, 10}));
   EXPECT_NEAR(coarse.lattice().originMm[0], 0.1, 1e-12);
+}
+
+TEST(Filters, CurvatureDiffusionSmoothsNoiseAndKeepsAStep) {
+  // A step 0 | 100 with Gaussian noise of sd 10: diffusion must lower the noise in the
+  // flat halves and leave the step where it was (the mid-level still between x = 9, 10).
+  Grid<float> g(Lattice::isotropic(12, 12, 20, 1.0), 0.0f);
+  RandomStream rng(3, 0);
+  for (std::int64_t k = 0; k < 12; ++k)
+    for (std::int64_t j = 0; j < 12; ++j)
+      for (std::int64_t i = 0; i < 20; ++i)
+        g(k, j, i) = static_cast<float>((i >= 10 ? 100.0 : 0.0) + 10.0 * rng.normal());
+  auto sd = [](const Grid<float>& img, std::int64_t i0, std::int64_t i1) {
+    double s = 0, s2 = 0, n = 0;
+    for (std::int64_t k = 0; k < 12; ++k)
+      for (std::int64_t j = 0; j < 12; ++j)
+        for (std::int64_t i = i0; i < i1; ++i) {
+          s += img(k, j, i);
+          s2 += img(k, j, i) * img(k, j, i);
+          n += 1;
+        }
+    return std::sqrt(s2 / n - (s / n) * (s / n));
+  };
+  const double before = sd(g, 0, 6);
+  curvatureDiffusion(g, {.iterations = 10, .conductance = 1.0, .timeStepFraction = 0.9}, 2);
+  EXPECT_LT(sd(g, 0, 6), 0.7 * before);
+  double left = 0, right = 0;
+  for (std::int64_t k = 0; k < 12; ++k)
+    for (std::int64_t j = 0; j < 12; ++j) {
+      left += g(k, j, 9);
+      right += g(k, j, 10);
+    }
+  EXPECT_LT(left / 144.0, 50.0);
+  EXPECT_GT(right / 144.0, 50.0);
+  EXPECT_THROW(curvatureDiffusion(g, {.iterations = 0}, 1), InputError);
 }
