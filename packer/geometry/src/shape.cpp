@@ -420,7 +420,8 @@ class Ellipsoid final : public AnalyticShape<Ellipsoid> {
 // The outer diameter is d = 2 (c + r).
 class Trilobe final : public AnalyticShape<Trilobe> {
  public:
-  Trilobe(double d, double dl, double l) : r_(dl / 2), c_(d / 2 - dl / 2), h_(l / 2) {
+  Trilobe(double d, double dl, double l)
+      : d_(d), dl_(dl), r_(dl / 2), c_(d / 2 - dl / 2), h_(l / 2) {
     for (int i = 0; i < 3; ++i) {
       const double a = 2 * kPi * i / 3;
       centre_[i] = {c_ * std::cos(a), c_ * std::sin(a)};
@@ -448,7 +449,7 @@ class Trilobe final : public AnalyticShape<Trilobe> {
       paint(disc(p0, d, centre_[i].x(), centre_[i].y(), r_) & z, n, out, 1);
   }
   std::string spec() const override {
-    return "trilobe:d=" + formatNumber(2 * (c_ + r_)) + ",dl=" + formatNumber(2 * r_) +
+    return "trilobe:d=" + formatNumber(d_) + ",dl=" + formatNumber(dl_) +
            ",l=" + formatNumber(2 * h_);
   }
   double volumeMm3() const override { return area_ * 2 * h_; }
@@ -513,6 +514,7 @@ class Trilobe final : public AnalyticShape<Trilobe> {
     perimeter_ = 3 * r_ * 2 * halfArc_;
   }
 
+  double d_, dl_;  // as given, for the canonical spec
   double r_, c_, h_;
   std::array<Eigen::Vector2d, 3> centre_, dir_;
   double halfArc_ = 0, area_ = 0, polar_ = 0, perimeter_ = 0;
@@ -553,7 +555,7 @@ std::shared_ptr<const Shape> parseShape(const std::string& text) {
   if (s.name == "trilobe") {
     s.allowOnly({"d", "dl", "l"});
     const double d = s.positive("d"), l = s.positive("l");
-    const double dl = s.has("dl") ? s.positive("dl") : 0.6 * d;
+    const double dl = s.has("dl") ? s.positive("dl") : d * 3 / 5;  // 0.6 d
     // Lobes must overlap past the axis (c < r) so the section is one simply connected
     // region; dl = d would be a plain cylinder.
     if (!(dl > d / 2 && dl < d))
