@@ -94,23 +94,44 @@ Grid<float> makePhantom(const Bed& bed, const PhantomOptions& o, int threads, Pr
       o.wallThicknessMm > 0.0
           ? std::max(1, static_cast<int>(std::lround(o.wallThicknessMm / l.spacingMm[2])))
           : 4;
-  for (std::int64_t k = 0; k < l.nz(); ++k)
-    for (std::int64_t j = 0; j < l.ny(); ++j)
-      for (std::int64_t i = 0; i < l.nx(); ++i) {
-        const std::size_t off = l.offset(k, j, i);
-        if (!bed.mask || (*bed.mask)[off]) {
-          img[off] = bed.indicator[off] ? lv.voidLevel : lv.solidLevel;
-          continue;
-        }
-        bool nearMask = false;
-        for (int b = -wallVox; b <= wallVox && !nearMask; ++b)
-          for (int a = -wallVox; a <= wallVox && !nearMask; ++a) {
-            if (a * a + b * b > wallVox * wallVox) continue;
-            const std::int64_t jj = j + b, ii = i + a;
-            if (l.contains(k, jj, ii) && (*bed.mask)(k, jj, ii)) nearMask = true;
-          }
-        img[off] = nearMask ? lv.wallLevel : lv.outsideLevel;
+  // Per slice, the wall is stamped as a disc around every mask pixel on the mask's rim:
+  // cheap, as the rim is a curve.
+  std::vector<std::pair<int, int>> disc;
+  for (int b = -wallVox; b <= wallVox; ++b)
+    for (int a = -wallVox; a <= wallVox; ++a)
+      if (a * a + b * b <= wallVox * wallVox) disc.emplace_back(b, a);
+  const std::int64_t ny = l.ny(), nx = l.nx();
+#pragma omp parallel num_threads(std::max(1, threads))
+  {
+    std::vector<std::uint8_t> wall(static_cast<std::size_t>(ny * nx));
+#pragma omp for schedule(dynamic, 4)
+    for (std::int64_t k = 0; k < l.nz(); ++k) {
+      const std::uint8_t* ind = bed.indicator.data() + l.offset(k, 0, 0);
+      float* out = img.data() + l.offset(k, 0, 0);
+      if (!bed.mask) {
+        for (std::int64_t p = 0; p < ny * nx; ++p) out[p] = ind[p] ? lv.voidLevel : lv.solidLevel;
+        continue;
       }
+      const std::uint8_t* m = bed.mask->data() + l.offset(k, 0, 0);
+      std::fill(wall.begin(), wall.end(), 0);
+      for (std::int64_t j = 0; j < ny; ++j)
+        for (std::int64_t i = 0; i < nx; ++i) {
+          if (!m[j * nx + i]) continue;
+          const bool rim = (j == 0 || !m[(j - 1) * nx + i]) ||
+                           (j == ny - 1 || !m[(j + 1) * nx + i]) ||
+                           (i == 0 || !m[j * nx + i - 1]) || (i == nx - 1 || !m[j * nx + i + 1]);
+          if (!rim) continue;
+          for (const auto& [b, a] : disc) {
+            const std::int64_t jj = j + b, ii = i + a;
+            if (jj >= 0 && ii >= 0 && jj < ny && ii < nx)
+              wall[static_cast<std::size_t>(jj * nx + ii)] = 1;
+          }
+        }
+      for (std::int64_t p = 0; p < ny * nx; ++p)
+        out[p] = m[p] ? (ind[p] ? lv.voidLevel : lv.solidLevel)
+                      : (wall[static_cast<std::size_t>(p)] ? lv.wallLevel : lv.outsideLevel);
+    }
+  }
   progress.report("phantom", 0.2);
 
   gaussianBlur(img, o.blurMm, threads);
