@@ -172,3 +172,13 @@ TEST(McPacker, RefusesBadOptions) {
   o.fillHeightMm = 3;
   EXPECT_THROW(validate(o), InputError);  // both goals
 }
+
+// Filling to the lid is a reachable goal: the bed ends settled, not "container full".
+TEST(McPacker, FillToTheLidIsSettled) {
+  McOptions o = small(0.5, 0);
+  o.fillHeightMm = 8.0;
+  const McResult r = pack({{"sphere:d=3", 1.0}}, "cylinder:d=8,h=8", o, 2);
+  EXPECT_EQ(r.status, McStatus::Settled);
+  EXPECT_GT(r.bed.particles.size(), 3u);
+  expectExclusiveAndContained(r);
+}

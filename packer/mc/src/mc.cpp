@@ -503,6 +503,10 @@ McResult McPacker::run() {
                        std::to_string(o_.voxelSizeMm) + " mm");
   }
 
+  // A particle centre cannot come within about half a diameter of the lid, so a fill
+  // height closer than one diameter to the top counts as reached when the bed gets there.
+  const double fillGoalMm =
+      std::min(o_.fillHeightMm, bounds_.max.z() - bounds_.min.z() - diameterMm_);
   McStatus status = McStatus::Settled;
   bool full = false;
   for (;;) {
@@ -513,12 +517,12 @@ McResult McPacker::run() {
     status = settle(o_.reboundProbability);
     if (status == McStatus::CapReached) break;
     if (o_.count > 0 && stats_.injected >= o_.count) break;
-    if (o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= o_.fillHeightMm) break;
+    if (o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm) break;
   }
   if (full && status == McStatus::Settled) {
     // In fill mode a full container at the fill height is success, not a shortfall.
     const bool reached =
-        o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= o_.fillHeightMm - 1e-9;
+        o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm - 1e-9;
     status = reached ? McStatus::Settled : McStatus::ContainerFull;
   }
   const int tapSweeps = o_.tapSweeps > 0 ? o_.tapSweeps : window_;
