@@ -82,7 +82,8 @@ def fig_axial(beds, rep, out):
             continue
         ax2.hist(used, bins=max(5, min(30, used.size // 4)), density=True, alpha=0.35,
                  color=ln.get_color())
-        m, s = float(np.mean(used)), float(np.std(used))
+        m = float(np.mean(used))
+        s = float(np.std(used, ddof=1)) if used.size > 1 else 0.0  # as stats' axial.std
         if s > 0:
             x = np.linspace(m - 4 * s, m + 4 * s, 200)
             ax2.plot(x, np.exp(-0.5 * ((x - m) / s) ** 2) / (s * math.sqrt(2 * math.pi)),

@@ -283,9 +283,7 @@ std::string cell(double v, int digits = 3) {
   return o.str();
 }
 
-std::string originText(const BedEntry& e) {
-  return e.origin.kind + (e.origin.synthetic && e.origin.kind != "simulated" ? " (synthetic)" : "");
-}
+std::string originText(const BedEntry& e) { return e.origin.kind + ", " + e.origin.detail; }
 
 std::string htmlReport(const Comparison& c, const fs::path& dir,
                        const std::vector<fs::path>& figures,
@@ -298,8 +296,8 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
     << "<style>\n"
        "body{font-family:sans-serif;max-width:1100px;margin:1.5em auto;padding:0 1em;color:#222}\n"
        "table{border-collapse:collapse;margin:1em 0}\n"
-       "td,th{border:1px solid #bbb;padding:.3em .6em;text-align:right}\n"
-       "td:first-child,th:first-child,td.l{text-align:left}\n"
+       "td,th{border:1px solid #bbb;padding:.3em .6em;text-align:right;white-space:nowrap}\n"
+       "td:first-child,th:first-child,td.l{text-align:left}\ntd.l{white-space:normal}\n"
        "th{background:#eef}\n"
        ".badge{display:inline-block;font-size:.75em;padding:.1em .45em;border-radius:.6em;"
        "background:#f5d67b;color:#533;margin-left:.4em}\n"
@@ -369,7 +367,8 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
       << (n == 0 ? "reference" : "candidate") << "</td><td class=\"l\">" << originCell(*e) << " "
       << htmlEscape(e->origin.detail) << "</td><td class=\"l\">" << htmlEscape(e->path.string())
       << "</td><td>" << cell(e->spacingMm[0], 4) << ", " << cell(e->spacingMm[1], 4) << ", "
-      << cell(e->spacingMm[2], 4) << "</td><td>" << cell(por, 4) << "</td></tr>\n";
+      << cell(e->spacingMm[2], 4) << "</td><td>" << cell(e->region.fromMm, 2) << " &ndash; "
+      << cell(e->region.toMm, 2) << "</td><td>" << cell(por, 4) << "</td></tr>\n";
     ++n;
   }
   h << "</table>\n";
