@@ -187,8 +187,27 @@ class MeshModel {
   // surface, so one inside query per run of samples between crossings suffices.
   void insideRow(const Vec3& p0, const Vec3& step, int n, std::uint8_t* out) const {
     if (n <= 0) return;
-    const Vec3 p1 = p0 + static_cast<double>(n - 1) * step;
-    const Vec3 a = p0 - step, b = p1 + step;  // one sample beyond each end
+    // The segment runs from outside the (slightly grown) mesh box to outside it, so the
+    // crossings' parity gives the inside state wherever every crossing is a clean
+    // transversal hit (one triangle, a point, well separated from the others).
+    double tLo = -1, tHi = n;
+    const Vec3 grow = Vec3::Constant(1e-3 * std::max(radius_, 1e-9));
+    bool clean = true;
+    for (int ax = 0; ax < 3; ++ax) {
+      const double lo = bounds_.min[ax] - grow[ax], hi = bounds_.max[ax] + grow[ax];
+      if (std::abs(step[ax]) < 1e-300) {
+        if (p0[ax] < lo || p0[ax] > hi) {
+          std::fill(out, out + n, std::uint8_t{0});  // the row misses the mesh box
+          return;
+        }
+        continue;
+      }
+      double u = (lo - p0[ax]) / step[ax], v = (hi - p0[ax]) / step[ax];
+      if (u > v) std::swap(u, v);
+      tLo = std::min(tLo, u - 1);
+      tHi = std::max(tHi, v + 1);
+    }
+    const Vec3 a = p0 + tLo * step, b = p0 + tHi * step;
     const double len2 = (b - a).squaredNorm();
     std::vector<double> breaks;
     if (len2 > 0) {
@@ -199,21 +218,26 @@ class MeshModel {
       tree_->all_intersections(seg, std::back_inserter(hits));
       const auto toSample = [&](const Point& q) {
         const Vec3 v(q.x() - a.x(), q.y() - a.y(), q.z() - a.z());
-        // Sample units along the row: a is sample -1.
-        return v.dot(b - a) / len2 * static_cast<double>(n + 1) - 1.0;
+        return tLo + v.dot(b - a) / len2 * (tHi - tLo);
       };
       for (const auto& h : hits) {
         if (!h) continue;
         if (const Point* q = boost::get<Point>(&h->first)) {
           breaks.push_back(toSample(*q));
-        } else if (const Segment* s = boost::get<Segment>(&h->first)) {
-          breaks.push_back(toSample(s->source()));
-          breaks.push_back(toSample(s->target()));
+        } else if (const Segment* sg = boost::get<Segment>(&h->first)) {
+          breaks.push_back(toSample(sg->source()));
+          breaks.push_back(toSample(sg->target()));
+          clean = false;  // the line runs inside a triangle's plane
         }
       }
       std::sort(breaks.begin(), breaks.end());
+    } else {
+      clean = false;
     }
     const double eps = 1e-6;
+    // Hits on shared edges or vertices appear twice (or tangentially): no parity then.
+    for (std::size_t k = 1; k < breaks.size() && clean; ++k)
+      if (breaks[k] - breaks[k - 1] <= eps) clean = false;
     const auto classify = [&](int s) {
       return inside(p0 + static_cast<double>(s) * step) ? std::uint8_t{1} : std::uint8_t{0};
     };
@@ -229,7 +253,8 @@ class MeshModel {
       int e = n - 1;
       if (bi < breaks.size()) e = std::min(e, static_cast<int>(std::ceil(breaks[bi] - eps)) - 1);
       e = std::max(e, s);
-      const std::uint8_t v = classify(s + (e - s) / 2);
+      // bi crossings lie before sample s (none within eps of it).
+      const std::uint8_t v = clean ? static_cast<std::uint8_t>(bi & 1) : classify(s + (e - s) / 2);
       std::fill(out + s, out + e + 1, v);
       s = e + 1;
     }
