@@ -48,7 +48,8 @@ class Shape {
   /// Axis-aligned bounds of the shape in its body frame (mm); default +-boundingRadius.
   virtual BoundsMm bodyBoundsMm() const;
   /// Inside flags of the n body-frame points p0 + s * step (s = 0..n-1): out[s] = 1 when
-  /// inside. The digitiser's inner loop: one virtual call per row, not per voxel.
+  /// inside (as inside(), except possibly for points within rounding of the surface).
+  /// The digitiser's inner loop: one virtual call per row, not per voxel.
   virtual void insideRow(const Vec3& p0, const Vec3& step, int n, std::uint8_t* out) const;
 };
 
