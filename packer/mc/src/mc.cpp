@@ -150,6 +150,19 @@ class McPacker {
                     DigitalParticle& out) const;
   void adopt(Particle& p, const DigitalParticle& dp, const Vec3& c, const Quat& q) const;
   void writeLabels(const Particle& p, std::uint32_t value);
+  bool isOccupied(std::int64_t off) const {
+    const auto o = static_cast<std::uint64_t>(off);
+    return (occupied_[o >> 6] >> (o & 63)) & 1u;
+  }
+  void setVoxel(std::int64_t off, std::uint32_t value) {
+    const auto o = static_cast<std::uint64_t>(off);
+    labels_[o] = value;
+    const std::uint64_t bit = std::uint64_t{1} << (o & 63);
+    if (value != 0)
+      occupied_[o >> 6] |= bit;
+    else
+      occupied_[o >> 6] &= ~bit;
+  }
   bool stepFree(const Particle& p, int axis, int sign) const;
   void applyStep(Particle& p, std::uint32_t id, int axis, int sign);
   void attemptMove(std::size_t index, RandomStream& rng, double pr);
@@ -171,6 +184,9 @@ class McPacker {
   Lattice lattice_;
   Grid<std::uint8_t> mask_;
   std::vector<std::uint32_t> labels_;
+  // One bit per voxel, set where labels_ != 0. The step tests read only this: at 0.27 mm
+  // the labels are 39 MB and every leading voxel is a cache miss, the bits are 1.2 MB.
+  std::vector<std::uint64_t> occupied_;
   std::array<std::int64_t, 3> stride_{};  // linear stride of axis x, y, z
   std::vector<Particle> particles_;
   std::vector<double> fractions_;
@@ -219,7 +235,7 @@ void McPacker::adopt(Particle& p, const DigitalParticle& dp, const Vec3& c, cons
 }
 
 void McPacker::writeLabels(const Particle& p, std::uint32_t value) {
-  for (const std::int64_t off : p.voxels) labels_[static_cast<std::size_t>(p.base + off)] = value;
+  for (const std::int64_t off : p.voxels) setVoxel(p.base + off, value);
 }
 
 // Only the leading surface (voxels whose face in the step direction is out-facing) can
@@ -228,7 +244,7 @@ bool McPacker::stepFree(const Particle& p, int axis, int sign) const {
   const auto& lead = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 1 : 0))];
   const std::int64_t d = p.base + sign * stride_[static_cast<std::size_t>(axis)];
   for (const std::int64_t off : lead)
-    if (labels_[static_cast<std::size_t>(off + d)] != 0) return false;
+    if (isOccupied(off + d)) return false;
   return true;
 }
 
@@ -236,8 +252,8 @@ void McPacker::applyStep(Particle& p, std::uint32_t id, int axis, int sign) {
   const auto& lead = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 1 : 0))];
   const auto& trail = p.faces[static_cast<std::size_t>(2 * axis + (sign > 0 ? 0 : 1))];
   const std::int64_t step = sign * stride_[static_cast<std::size_t>(axis)];
-  for (const std::int64_t off : lead) labels_[static_cast<std::size_t>(p.base + off + step)] = id;
-  for (const std::int64_t off : trail) labels_[static_cast<std::size_t>(p.base + off)] = 0;
+  for (const std::int64_t off : lead) setVoxel(p.base + off + step, id);
+  for (const std::int64_t off : trail) setVoxel(p.base + off, 0);
   p.base += step;
   p.shift[static_cast<std::size_t>(2 - axis)] += sign;  // shift is (k, j, i); axis 0 is x
 }
@@ -441,12 +457,14 @@ Bed McPacker::buildBed() const {
   bed.indicator = Grid<std::uint8_t>(lattice_, 1);
   Grid<std::uint32_t> labels(lattice_, 0);
   std::uint32_t next = 0;
-  for (const Particle& p : particles_) {
+  for (std::size_t n = 0; n < particles_.size(); ++n) {
+    const Particle& p = particles_[n];
     if (!p.alive) continue;
     ++next;
     for (const std::int64_t off : p.voxels) {
       const auto o = static_cast<std::size_t>(p.base + off);
-      if (labels[o] != 0 || mask_[o] == 0)
+      // The walk's label lattice must agree with the particle's own voxel list.
+      if (labels[o] != 0 || mask_[o] == 0 || labels_[o] != idOf(n) || !isOccupied(p.base + off))
         throw InternalError("Monte Carlo packer: overlapping or uncontained particle voxel");
       labels[o] = next;
       bed.indicator[o] = 0;
@@ -484,6 +502,7 @@ McResult McPacker::run() {
   lattice_ = latticeForContainer(container_, o_.voxelSizeMm, 1);
   mask_ = containerMask(container_, lattice_, o_.supersample);
   labels_.assign(lattice_.size(), 0);
+  occupied_.assign((lattice_.size() + 63) / 64, 0);
   stride_ = {1, lattice_.nx(), lattice_.nx() * lattice_.ny()};
   for (std::int64_t k = 0; k < lattice_.nz(); ++k)
     for (std::int64_t j = 0; j < lattice_.ny(); ++j)
@@ -491,7 +510,7 @@ McResult McPacker::run() {
         const bool border = k == 0 || j == 0 || i == 0 || k == lattice_.nz() - 1 ||
                             j == lattice_.ny() - 1 || i == lattice_.nx() - 1;
         const std::size_t off = lattice_.offset(k, j, i);
-        if (border || mask_[off] == 0) labels_[off] = kWall;
+        if (border || mask_[off] == 0) setVoxel(static_cast<std::int64_t>(off), kWall);
         if (border) mask_[off] = 0;
       }
   // A shape too small for the voxel digitises to nothing: refuse instead of packing void.
