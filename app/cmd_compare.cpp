@@ -40,7 +40,7 @@ class CompareCommand final : public Command {
                    "step of the common S2 lag grid (mm); 0 = the coarser bed's")
         ->check(CLI::NonNegativeNumber);
     sub.add_option("--bed-fraction", bedFraction_,
-                   "packed region: slices denser than this fraction of the median slice "
+                   "packed region: slices denser than this fraction of the densest slice "
                    "(0 = whole bed; default 0.5)")
         ->check(CLI::Range(0.0, 1.0));
     sub.add_flag("--no-figures", noFigures_, "numbers and CSV files only (no matplotlib)");

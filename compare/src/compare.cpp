@@ -83,13 +83,11 @@ PackedRegion packedRegion(const Bed& bed, double fraction) {
     if (packing(v)) partly.push_back(v);
   PackedRegion r;
   r.lastSlice = l.nz() - 1;
-  if (!partly.empty()) {
-    std::nth_element(partly.begin(),
-                     partly.begin() + static_cast<std::ptrdiff_t>(partly.size() / 2), partly.end());
-    r.medianDensity = partly[partly.size() / 2];
-  }
-  if (fraction > 0.0 && r.medianDensity > 0.0) {
-    const double cut = fraction * r.medianDensity;
+  // The peak, not the median: in a tall container most slices may be empty headspace
+  // with a few specks, and a median would then sit at the specks' level.
+  if (!partly.empty()) r.peakDensity = *std::max_element(partly.begin(), partly.end());
+  if (fraction > 0.0 && r.peakDensity > 0.0) {
+    const double cut = fraction * r.peakDensity;
     std::int64_t lo = -1, hi = -1;
     for (std::int64_t k = 0; k < l.nz(); ++k) {
       const double v = d[static_cast<std::size_t>(k)];

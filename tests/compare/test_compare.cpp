@@ -298,7 +298,7 @@ TEST(PackedRegion, DropsHeadspaceAndSolidEndWalls) {
   EXPECT_EQ(r.firstSlice, 1);
   EXPECT_EQ(r.lastSlice, 6);
   EXPECT_TRUE(r.cropped);
-  EXPECT_NEAR(r.medianDensity, 0.6, 1e-12);
+  EXPECT_NEAR(r.peakDensity, 0.6, 1e-12);
   EXPECT_NEAR(r.fromMm, 0.5, 1e-12);
   const PackedRegion none = packedRegion(bed, 0.0);
   EXPECT_FALSE(none.cropped);

@@ -27,12 +27,12 @@ struct PackedRegion {
   std::int64_t lastSlice = -1;  ///< last slice kept (inclusive); < firstSlice = empty
   double fromMm = 0.0;          ///< z of the first slice kept (mm)
   double toMm = 0.0;            ///< z of the last slice kept (mm)
-  double medianDensity = 0.0;   ///< median packing density of the partly solid slices
+  double peakDensity = 0.0;     ///< largest packing density of the partly solid slices
   bool cropped = false;         ///< true when slices were dropped
 };
 
 /// The slab of slices holding the packing: from the first to the last slice whose packing
-/// density inside the mask is >= fraction x the median over partly solid slices, skipping
+/// density inside the mask is >= fraction x the peak over partly solid slices, skipping
 /// fully solid slices (the end walls an imaged column shows). Without it the empty
 /// headspace above a bed and the walls enter porosity, S2 and the mean empty space.
 PackedRegion packedRegion(const Bed& bed, double fraction);
@@ -44,7 +44,7 @@ Bed cropSlices(const Bed& bed, std::int64_t first, std::int64_t last);
 struct CompareOptions {
   /// Statistics options, the same for every bed so that their numbers are comparable.
   stats::StatsOptions stats = defaultStatsOptions();
-  /// Packed-region crop: slices denser than this fraction of the bed's median slice
+  /// Packed-region crop: slices denser than this fraction of the bed's densest slice
   /// density (and not fully solid) bound the region every statistic is computed in;
   /// 0 = no crop (0..1).
   double bedRegionFraction = 0.5;
