@@ -41,6 +41,7 @@ TEST(DemPack, IdenticalForAnyThreadCount) {
   DemOptions o;
   o.maxTimeS = 0.12;
   o.friction = 0.3;
+  o.parallelMinItems = 1;  // parallel regions even for this small scene
   DemResult r[2];
   for (int t = 0; t < 2; ++t) {
     o.threads = t + 1;

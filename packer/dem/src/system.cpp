@@ -259,21 +259,25 @@ struct DemSystem::Impl {
     const Eigen::Matrix3d m = rb.transpose() * ra;
     const Vec3 off = rb.transpose() * (x[a] - x[b]);
     const double rb0 = tb.radiusMm;
+    // B's bounding sphere in A's frame: the cheap first test, no rotation per cluster.
+    const Vec3 cba = ra.transpose() * (x[b] - x[a]);
     const bool voxel = opt.contact == ContactModel::kVoxel;
     for (const auto& c : ta.coarse) {
+      const double reachC = rb0 + c.radius;
+      if ((c.centre - cba).squaredNorm() > reachC * reachC) continue;
       const Vec3 cb = m * c.centre + off;
-      if (cb.norm() > rb0 + c.radius) continue;
       ++evals;
       if (tb.sdf(cb) > c.radius) continue;
       for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
         const auto& f = ta.fine[fi];
+        const double reachF = rb0 + f.radius;
+        if ((f.centre - cba).squaredNorm() > reachF * reachF) continue;
         const Vec3 fb = m * f.centre + off;
-        if (fb.norm() > rb0 + f.radius) continue;
         ++evals;
         if (tb.sdf(fb) > f.radius) continue;
         for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
+          if ((ta.nodeP[ni] - cba).squaredNorm() > rb0 * rb0) continue;
           const Vec3 pb = m * ta.nodeP[ni] + off;
-          if (pb.squaredNorm() > rb0 * rb0) continue;
           ++evals;
           const double s = tb.sdf(pb);
           if (s >= 0) continue;
@@ -357,7 +361,10 @@ struct DemSystem::Impl {
     // result independent of the thread count.
     std::uint64_t evalsTotal = 0, evaluated = 0;
     const std::int64_t np = static_cast<std::int64_t>(pairs.size());
-#pragma omp parallel num_threads(threads) reduction(+ : evalsTotal, evaluated)
+    // Small systems run serial: a parallel region costs more than it saves there, and far
+    // more on an oversubscribed machine.
+    const int pairThreads = np >= opt.parallelMinItems ? threads : 1;
+#pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated)
     {
       std::vector<Hit> hits;
 #pragma omp for schedule(dynamic, 32)
@@ -384,7 +391,8 @@ struct DemSystem::Impl {
     }
     // Walls: per particle, six contact classes.
     std::uint64_t wallEvals = 0;
-#pragma omp parallel num_threads(threads) reduction(+ : wallEvals)
+    const int wallThreads = static_cast<std::int64_t>(n) >= 4 * opt.parallelMinItems ? threads : 1;
+#pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals)
     {
       std::array<std::vector<Hit>, kWallClasses> hits;
 #pragma omp for schedule(dynamic, 16)
@@ -486,7 +494,6 @@ struct DemSystem::Impl {
 
   void kick(double h) {
     const std::int64_t n = static_cast<std::int64_t>(x.size());
-#pragma omp parallel for num_threads(std::max(1, opt.threads)) schedule(static)
     for (std::int64_t si = 0; si < n; ++si) {
       const std::size_t i = static_cast<std::size_t>(si);
       if (!awake[i]) continue;
@@ -497,7 +504,6 @@ struct DemSystem::Impl {
 
   void drift() {
     const std::int64_t n = static_cast<std::int64_t>(x.size());
-#pragma omp parallel for num_threads(std::max(1, opt.threads)) schedule(static)
     for (std::int64_t si = 0; si < n; ++si) {
       const std::size_t i = static_cast<std::size_t>(si);
       if (!awake[i]) continue;

@@ -90,6 +90,8 @@ struct DemOptions {
   double rainSpeedMmPerS = 0;       ///< initial downward speed of injected particles
   double fillHeightPhiGuess = 0.6;  ///< --fill-height: density used to size the count
   int threads = 1;                  ///< worker threads (results do not depend on it)
+  /// Fewest neighbour pairs (particles / 4) worth a parallel region; tuning only.
+  std::int64_t parallelMinItems = 64;
 };
 
 /// Precomputed body-frame (principal axes) data of one particle shape at one voxel size.
