@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "pack_modes.hpp"
+#include "voxel_choice.hpp"
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/spec.hpp"
@@ -76,6 +77,10 @@ class PackCommand final : public Command {
                    "particle shape SPEC; repeat for a mixture, SPEC@F gives number fraction F");
     sub.add_option("--container", container_, "container SPEC, e.g. cylinder:d=43.3,h=60");
     sub.add_option("--voxel-size", voxelSizeMm_, "lattice voxel size (mm)");
+    sub.add_option("--target-volume-error", targetVolumeError_,
+                   "instead of --voxel-size: the coarsest voxel whose mean digitisation volume "
+                   "error of the scene's shapes is below this fraction (e.g. 0.01), measured "
+                   "now over random poses");
     sub.add_option("--count", count_, "number of particles to pack");
     sub.add_option("--fill-height", fillHeightMm_, "pack until the bed reaches this height (mm)");
     sub.add_option("--seed", seed_, "random seed");
@@ -127,9 +132,18 @@ class PackCommand final : public Command {
 
   PackScene mergeScene(const toml::table& doc) {
     const fs::path& cf = config_;
-    static const std::set<std::string> known{
-        "mode",   "shape",       "container", "count", "fill_height_mm", "voxel_size_mm", "seed",
-        "output", "supersample", "mc",        "dem"};
+    static const std::set<std::string> known{"mode",
+                                             "shape",
+                                             "container",
+                                             "count",
+                                             "fill_height_mm",
+                                             "voxel_size_mm",
+                                             "seed",
+                                             "output",
+                                             "supersample",
+                                             "mc",
+                                             "dem",
+                                             "target_volume_error"};
     for (const auto& [key, node] : doc)
       if (!known.count(std::string(key.str())))
         throw InputError(where(cf, node) + ": unknown key '" + std::string(key.str()) +
@@ -185,11 +199,20 @@ class PackCommand final : public Command {
     if (s.containerSpec.empty()) throw UsageError("--container is required");
 
     std::optional<double> voxel;
+    std::optional<double> target;
+    if (given("--target-volume-error"))
+      target = targetVolumeError_;
+    else if (const toml::node* n = doc.get("target_volume_error"))
+      target = tomlDouble(cf, "target_volume_error", *n);
+    if (given("--voxel-size") && given("--target-volume-error"))
+      throw UsageError("give --voxel-size or --target-volume-error, not both");
     if (given("--voxel-size"))
       voxel = voxelSizeMm_;
+    else if (target)
+      voxel = chooseVoxel(s, *target);
     else if (const toml::node* n = doc.get("voxel_size_mm"))
       voxel = tomlDouble(cf, "voxel_size_mm", *n);
-    if (!voxel) throw UsageError("--voxel-size is required");
+    if (!voxel) throw UsageError("--voxel-size (or --target-volume-error) is required");
     if (!std::isfinite(*voxel) || *voxel <= 0) throw InputError("--voxel-size must be > 0");
     s.voxelSizeMm = *voxel;
 
@@ -252,6 +275,7 @@ class PackCommand final : public Command {
                      {{"shapes", shapes},
                       {"container", s.containerSpec},
                       {"voxel_size_mm", s.voxelSizeMm},
+                      {"voxel_choice", voxelChoice_},
                       {"count", s.count},
                       {"fill_height_mm", s.fillHeightMm},
                       {"supersample", s.supersample},
@@ -315,6 +339,33 @@ class PackCommand final : public Command {
   std::string mode_, container_, scene_mode_, commandLine_;
   std::vector<std::string> shapes_;
   double voxelSizeMm_ = 0, fillHeightMm_ = 0;
+  double targetVolumeError_ = 0;
+  nlohmann::json voxelChoice_ = nullptr;  // the measured ladder when the voxel was chosen
+
+  // Picks the coarsest voxel meeting the volume-error target (app/voxel_choice.hpp) and
+  // says what it chose: the user asked for accuracy, so the choice must be visible.
+  double chooseVoxel(const PackScene& s, double target) {
+    std::vector<std::string> specs;
+    for (const auto& sf : s.shapes) specs.push_back(sf.spec);
+    VoxelChoiceOptions o;
+    o.targetVolumeError = target;
+    const VoxelChoice c = chooseVoxelSize(specs, o);
+    nlohmann::json ladder = nlohmann::json::array();
+    for (const auto& r : c.ladder)
+      ladder.push_back({{"voxels_per_diameter", r.voxelsPerDiameter},
+                        {"voxel_size_mm", r.voxelSizeMm},
+                        {"mean_abs_volume_error", r.meanAbsError},
+                        {"max_abs_volume_error", r.maxAbsError}});
+    const auto& last = c.ladder.back();
+    voxelChoice_ = {{"target_volume_error", target}, {"met", c.met}, {"ladder", ladder}};
+    std::ostringstream m;
+    m << (c.met ? "pack: chose --voxel-size " : "pack: target not met; finest tried --voxel-size ")
+      << c.voxelSizeMm << " mm (" << last.voxelsPerDiameter
+      << " voxels per diameter): mean volume error " << 100 * last.meanAbsError << " % over "
+      << o.poses << " random poses (target " << 100 * target << " %)";
+    std::cerr << m.str() << '\n';
+    return c.voxelSizeMm;
+  }
   std::int64_t count_ = 0;
   std::uint64_t seed_ = 0;
   fs::path output_, config_;
