@@ -100,7 +100,7 @@ class DemMode final : public PackMode {
       pack.add_option(keys[n].flag, values_[n], keys[n].help);
     pack.add_option("--contact", contact_,
                     "DEM: node force direction: voxel (paper, face normal) or levelset "
-                    "(LS-DEM, exact normal); default voxel");
+                    "(LS-DEM, exact normal); default levelset");
     pack.add_option("--sleeping", sleeping_,
                     "DEM: on/off: particles at rest away from motion are frozen (default on)");
   }
@@ -238,7 +238,7 @@ class DemMode final : public PackMode {
   }
 
   std::vector<double> values_;
-  std::string contact_ = "voxel";
+  std::string contact_ = "levelset";
   std::string sleeping_ = "on";
 };
 

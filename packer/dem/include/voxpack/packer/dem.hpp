@@ -73,14 +73,14 @@ struct DemOptions {
   double targetOverlap = 0.004;        ///< auto stiffness: overlap / d under the bed weight
   double timeStepS = 0;                ///< requested step (s); 0 = timeStepFraction * t_c
   double timeStepFraction = 1.0 / 20;  ///< step as a fraction of the contact time t_c (1/50..1/10)
-  ContactModel contact = ContactModel::kVoxel;  ///< direction of node forces
-  double gravityMmPerS2 = 9810.0;               ///< gravity magnitude, acting along -z
-  double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (elastic spheres)
-  int tapCycles = 0;                            ///< taps after the pour settled (0 = none)
-  double tapAmplitudeMm = 0;                    ///< container lift per tap; 0 = 0.1 d
-  double tapFrequencyHz = 30;                   ///< one tap = one sine period of the container lift
-  double tapRestS = 0.1;                        ///< free relaxation after each tap (s)
-  bool sleeping = true;                         ///< particles at rest away from motion are frozen
+  ContactModel contact = ContactModel::kLevelSet;  ///< direction of node forces
+  double gravityMmPerS2 = 9810.0;                  ///< gravity magnitude, acting along -z
+  double tangentialStiffnessRatio = 2.0 / 7.0;     ///< k_t / k_n (elastic spheres)
+  int tapCycles = 0;                               ///< taps after the pour settled (0 = none)
+  double tapAmplitudeMm = 0;                       ///< container lift per tap; 0 = 0.1 d
+  double tapFrequencyHz = 30;       ///< one tap = one sine period of the container lift
+  double tapRestS = 0.1;            ///< free relaxation after each tap (s)
+  bool sleeping = true;             ///< particles at rest away from motion are frozen
   double sleepTimeS = 0.01;         ///< time a particle must be at rest before it sleeps
   double settleKinetic = 1e-6;      ///< settled: mean KE per particle < this * m g d
   double settleVelocity = 1e-3;     ///< settled: max |v| < this * sqrt(g d)
