@@ -5,6 +5,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <sstream>
 
 #include "cli_runner.hpp"
@@ -38,11 +39,12 @@ inline std::string slurp(const std::filesystem::path& p) {
   return ss.str();
 }
 
-/// True when the text holds a bare NaN/Infinity token (what a broken JSON writer emits).
+/// True when the text holds a bare NaN/Inf value (what a broken JSON or CSV writer emits):
+/// a token after ':', '[', ',' or at a line start, not a word such as "info" or "nano".
 inline bool hasNonFiniteToken(const std::string& text) {
-  for (const char* bad : {"NaN", "nan", "Infinity", "inf,", "inf]", "inf}"})
-    if (text.find(bad) != std::string::npos) return true;
-  return false;
+  static const std::regex bad(R"((^|[:\[,])\s*[-+]?(nan|NaN|NAN|inf|Inf|INF|infinity|Infinity)\b)",
+                              std::regex::multiline);
+  return std::regex_search(text, bad);
 }
 
 /// Parses a JSON file strictly (NaN would not parse) and checks every number is finite.
