@@ -15,18 +15,20 @@ import subprocess
 import sys
 import time
 
-# Scenes are sized so the whole sweep fits an evening on 2 cores; D/d and the pellet shape
-# follow the paper (cylinders d 5.4, l 3.8) and the DEM issue's sphere scene (D/d = 8).
+# Scenes are sized so the whole sweep fits an evening on 2 cores: the paper's pellet
+# (cylinders d 5.4, l 3.8) and spheres, in narrower columns (D/d = 4) than the paper's so a
+# bed of ~100-200 particles still leaves several diameters of core after trimming one
+# diameter at each end.
 SCENES = {
-    "cylinders": {"shape": "cylinder:d=5.4,l=3.8", "d": 5.4, "container": "cylinder:d=43.3,h={h}",
-                  "count": 160, "height": 60.0},
-    "spheres": {"shape": "sphere:d=3", "d": 3.0, "container": "cylinder:d=24,h={h}",
-                "count": 400, "height": 45.0},
+    "cylinders": {"shape": "cylinder:d=5.4,l=3.8", "d": 5.4, "container": "cylinder:d=21.6,h={h}",
+                  "count": 100, "height": 70.0},
+    "spheres": {"shape": "sphere:d=3", "d": 3.0, "container": "cylinder:d=12,h={h}",
+                "count": 200, "height": 60.0},
 }
 FULL = {"vpd": [6, 8, 10, 15, 20, 30], "seeds": [1, 2, 3], "modes": ["mc", "dem"],
         "scenes": ["cylinders", "spheres"]}
 QUICK = {"vpd": [6, 10, 15], "seeds": [1], "modes": ["mc", "dem"], "scenes": ["spheres"],
-         "count_scale": 0.25}
+         "count_scale": 0.5}
 
 
 def run(cmd, log, timeout):
@@ -98,8 +100,7 @@ def main():
     for scene_name in plan["scenes"]:
         sc = SCENES[scene_name]
         count = max(8, int(round(sc["count"] * plan.get("count_scale", 1.0))))
-        height = sc["height"] * (plan.get("count_scale", 1.0) ** 0.5 if a.quick else 1.0)
-        height = max(height, 4 * sc["d"])
+        height = sc["height"] * plan.get("count_scale", 1.0)
         container = sc["container"].format(h=f"{height:g}")
         for mode in plan["modes"]:
             for vpd in plan["vpd"]:
@@ -123,7 +124,7 @@ def main():
                         sj = os.path.join(beds, os.path.basename(bed)[:-3] + "_stats.json")
                         r2, _, _, _ = run([a.voxpack, "--quiet", "stats", bed, "-o", sj,
                                            "--only", "axial", "--particle-diameter-mm",
-                                           f"{sc['d']}"], log, a.timeout)
+                                           f"{sc['d']}", "--trim-mm", f"{sc['d']}"], log, a.timeout)
                         if r2 == 0:
                             st = json.load(open(sj))
                             row["density"] = st["axial"]["mean"]
