@@ -122,10 +122,37 @@ struct DemSystem::Impl {
   std::vector<Vec3> wallF, wallT;
   std::vector<double> wallElastic, wallDepth;
   // Pairs.
+  // Nodes of each side that were within the node skin of the other body when the list was
+  // searched, and the relative pose (i's frame in j's) at that search. Signed distances are
+  // 1-Lipschitz, so while no node has moved more than the skin relative to the other body,
+  // every penetrating node is on the list.
+  struct NodeList {
+    std::vector<std::uint32_t> a, b;
+    Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+    Vec3 off = Vec3::Zero(), offT = Vec3::Zero();
+    bool valid = false;
+  };
   struct Pair {
     std::uint32_t i, j;
     Vec3 xi;
+    NodeList nodes;
   };
+  // The same for one particle against the walls (pose and wall lift at the search).
+  struct WallList {
+    std::vector<std::uint32_t> nodes;
+    Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+    Vec3 x = Vec3::Zero();
+    double lift = 0;
+    bool valid = false;
+  };
+  std::vector<WallList> wallLists;
+  double nodeSkin = 0;  // mm
+  // Per template: principal frame -> shape frame as a matrix (the shape's distance function
+  // takes shape-frame points; folding this into the pair transform saves a rotation a node).
+  std::vector<Eigen::Matrix3d> toShape;
+  // Per particle, refreshed at each force evaluation: rotation and angular velocity.
+  std::vector<Eigen::Matrix3d> rot;
+  std::vector<Vec3> omegaW;
   std::vector<Pair> pairs;
   struct PairOut {
     ContactOut c;
@@ -249,53 +276,118 @@ struct DemSystem::Impl {
     return out;
   }
 
-  // Nodes of particle a inside particle b. Force direction is on `a` times `sign`.
-  void nodesInside(std::size_t a, std::size_t b, double factor, double sign, std::vector<Hit>& hits,
-                   std::uint64_t& evals) const {
+  // A penetrating node ni of a (position pb in b's shape frame) as a hit on a; rbS maps b's
+  // shape frame to the world.
+  Hit nodeHit(const ParticleTemplate& ta, const ParticleTemplate& tb, std::uint32_t ni,
+              const Vec3& pb, double s, const Vec3& xa, const Eigen::Matrix3d& ra,
+              const Eigen::Matrix3d& rbS, double factor, double sign) const {
+    Hit h;
+    h.p = xa + ra * ta.nodeP[ni];
+    h.depth = -s;
+    if (opt.contact == ContactModel::kVoxel) {
+      h.dir = -(ra * ta.nodeFace[ni]);
+      h.kw = k * ta.nodeArea[ni] * factor;
+    } else {
+      h.dir = rbS * tb.shape->normal(pb);
+      h.kw = k * ta.nodeLsArea[ni] * factor;
+    }
+    h.dir *= sign;
+    return h;
+  }
+
+  // Nodes of a inside b, searched through a's cluster hierarchy; nodes within the node skin
+  // of b go to `list`. m, off map a's body frame into b's shape frame, rbS b's shape frame
+  // to the world. Force direction on a times sign.
+  void searchNodes(std::size_t a, std::size_t b, const Eigen::Matrix3d& ra,
+                   const Eigen::Matrix3d& rbS, const Eigen::Matrix3d& m, const Vec3& off,
+                   double factor, double sign, std::vector<Hit>& hits,
+                   std::vector<std::uint32_t>& list, std::uint64_t& evals) const {
     const ParticleTemplate& ta = tmpl[tid[a]];
     const ParticleTemplate& tb = tmpl[tid[b]];
-    const Eigen::Matrix3d ra = q[a].toRotationMatrix();
-    const Eigen::Matrix3d rb = q[b].toRotationMatrix();
-    const Eigen::Matrix3d m = rb.transpose() * ra;
-    const Vec3 off = rb.transpose() * (x[a] - x[b]);
-    const double rb0 = tb.radiusMm;
-    // B's bounding sphere in A's frame: the cheap first test, no rotation per cluster.
+    const double rb0 = tb.radiusMm + nodeSkin;
+    // b's bounding sphere in a's frame: the cheap first test, no rotation per cluster.
     const Vec3 cba = ra.transpose() * (x[b] - x[a]);
-    const bool voxel = opt.contact == ContactModel::kVoxel;
+    list.clear();
     for (const auto& c : ta.coarse) {
       const double reachC = rb0 + c.radius;
       if ((c.centre - cba).squaredNorm() > reachC * reachC) continue;
-      const Vec3 cb = m * c.centre + off;
       ++evals;
-      if (tb.sdf(cb) > c.radius) continue;
+      if (tb.shape->signedDistanceMm(m * c.centre + off) > c.radius + nodeSkin) continue;
       for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
         const auto& f = ta.fine[fi];
         const double reachF = rb0 + f.radius;
         if ((f.centre - cba).squaredNorm() > reachF * reachF) continue;
-        const Vec3 fb = m * f.centre + off;
         ++evals;
-        if (tb.sdf(fb) > f.radius) continue;
+        if (tb.shape->signedDistanceMm(m * f.centre + off) > f.radius + nodeSkin) continue;
         for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
           if ((ta.nodeP[ni] - cba).squaredNorm() > rb0 * rb0) continue;
           const Vec3 pb = m * ta.nodeP[ni] + off;
           ++evals;
-          const double s = tb.sdf(pb);
+          const double s = tb.shape->signedDistanceMm(pb);
+          if (s >= nodeSkin) continue;
+          list.push_back(ni);
           if (s >= 0) continue;
-          Hit h;
-          h.p = x[a] + ra * ta.nodeP[ni];
-          h.depth = -s;
-          if (voxel) {
-            h.dir = -(ra * ta.nodeFace[ni]);
-            h.kw = k * ta.nodeArea[ni] * factor;
-          } else {
-            h.dir = rb * tb.normal(pb);
-            h.kw = k * ta.nodeLsArea[ni] * factor;
-          }
-          h.dir *= sign;
+          const Hit h = nodeHit(ta, tb, ni, pb, s, x[a], ra, rbS, factor, sign);
           if (h.kw > 0) hits.push_back(h);
         }
       }
     }
+  }
+
+  // Nodes of a inside b among the listed ones (same order as the search found them).
+  void listedNodes(std::size_t a, std::size_t b, const Eigen::Matrix3d& ra,
+                   const Eigen::Matrix3d& rbS, const Eigen::Matrix3d& m, const Vec3& off,
+                   double factor, double sign, std::vector<Hit>& hits,
+                   const std::vector<std::uint32_t>& list, std::uint64_t& evals) const {
+    const ParticleTemplate& ta = tmpl[tid[a]];
+    const ParticleTemplate& tb = tmpl[tid[b]];
+    evals += list.size();
+    for (const std::uint32_t ni : list) {
+      const Vec3 pb = m * ta.nodeP[ni] + off;
+      const double s = tb.shape->signedDistanceMm(pb);
+      if (s >= 0) continue;
+      const Hit h = nodeHit(ta, tb, ni, pb, s, x[a], ra, rbS, factor, sign);
+      if (h.kw > 0) hits.push_back(h);
+    }
+  }
+
+  // Hits of pair p (nodes of i in j, then nodes of j in i), from its node lists when the
+  // relative pose has not moved more than the skin since they were searched.
+  void pairHits(Pair& p, std::vector<Hit>& hits, std::uint64_t& evals,
+                std::uint64_t& searches) const {
+    const Eigen::Matrix3d& ri = rot[p.i];
+    const Eigen::Matrix3d& rj = rot[p.j];
+    const Eigen::Matrix3d m = rj.transpose() * ri;  // i's frame -> j's frame
+    const Vec3 off = rj.transpose() * (x[p.i] - x[p.j]);
+    const Vec3 offT = ri.transpose() * (x[p.j] - x[p.i]);  // i's frame: j's centre
+    NodeList& nl = p.nodes;
+    bool fresh = nl.valid;
+    if (fresh) {
+      // A node at radius r moves by at most |dm|_F r + |d off| (Frobenius bounds the 2-norm);
+      // the inverse transform has the same |dm|_F.
+      const double dm = (m - nl.m).norm();
+      const double moveI = dm * tmpl[tid[p.i]].radiusMm + (off - nl.off).norm();
+      const double moveJ = dm * tmpl[tid[p.j]].radiusMm + (offT - nl.offT).norm();
+      fresh = std::max(moveI, moveJ) < nodeSkin;
+    }
+    // Into the other body's shape frame, where its distance function is defined.
+    const Eigen::Matrix3d& si = toShape[tid[p.i]];
+    const Eigen::Matrix3d& sj = toShape[tid[p.j]];
+    const Eigen::Matrix3d mIJ = sj * m, mJI = si * m.transpose();
+    const Vec3 offIJ = sj * off, offJI = si * offT;
+    const Eigen::Matrix3d rjS = rj * sj.transpose(), riS = ri * si.transpose();
+    if (fresh) {
+      listedNodes(p.i, p.j, ri, rjS, mIJ, offIJ, 0.5, 1.0, hits, nl.a, evals);
+      listedNodes(p.j, p.i, rj, riS, mJI, offJI, 0.5, -1.0, hits, nl.b, evals);
+      return;
+    }
+    ++searches;
+    searchNodes(p.i, p.j, ri, rjS, mIJ, offIJ, 0.5, 1.0, hits, nl.a, evals);
+    searchNodes(p.j, p.i, rj, riS, mJI, offJI, 0.5, -1.0, hits, nl.b, evals);
+    nl.m = m;
+    nl.off = off;
+    nl.offT = offT;
+    nl.valid = true;
   }
 
   void rebuildNeighbours() {
@@ -333,7 +425,7 @@ struct DemSystem::Impl {
               if (j <= i) continue;
               const double reach = ri + tmpl[tid[j]].radiusMm + skin;
               if ((x[i] - x[j]).squaredNorm() < reach * reach)
-                fresh.push_back({static_cast<std::uint32_t>(i), j, Vec3::Zero()});
+                fresh.push_back({static_cast<std::uint32_t>(i), j, Vec3::Zero(), NodeList{}});
             }
           }
     }
@@ -343,7 +435,10 @@ struct DemSystem::Impl {
     std::size_t o = 0;
     for (Pair& p : fresh) {
       while (o < pairs.size() && (pairs[o].i < p.i || (pairs[o].i == p.i && pairs[o].j < p.j))) ++o;
-      if (o < pairs.size() && pairs[o].i == p.i && pairs[o].j == p.j) p.xi = pairs[o].xi;
+      if (o < pairs.size() && pairs[o].i == p.i && pairs[o].j == p.j) {
+        p.xi = pairs[o].xi;
+        p.nodes = std::move(pairs[o].nodes);
+      }
     }
     pairs.swap(fresh);
     pairOut.assign(pairs.size(), PairOut{});
@@ -357,14 +452,22 @@ struct DemSystem::Impl {
     double vw = 0;
     const double zw = wallOffset(t, &vw);
     const Vec3 wallShift(0, 0, zw);
+    rot.resize(n);
+    omegaW.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      rot[i] = q[i].toRotationMatrix();
+      const ParticleTemplate& tp = tmpl[tid[i]];
+      const Vec3 lb = rot[i].transpose() * L[i];
+      omegaW[i] = rot[i] * lb.cwiseQuotient(tp.inertiaG);
+    }
     // Pairs: each writes only its own slot, then a serial sum in pair order keeps the
     // result independent of the thread count.
-    std::uint64_t evalsTotal = 0, evaluated = 0;
+    std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
     const std::int64_t np = static_cast<std::int64_t>(pairs.size());
     // Small systems run serial: a parallel region costs more than it saves there, and far
     // more on an oversubscribed machine.
     const int pairThreads = np >= opt.parallelMinItems ? threads : 1;
-#pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated)
+#pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated, searches)
     {
       std::vector<Hit> hits;
 #pragma omp for schedule(dynamic, 32)
@@ -381,18 +484,17 @@ struct DemSystem::Impl {
         std::uint64_t evals = 0;
         // Both surfaces probe each other at half stiffness: symmetric, and a flat contact
         // of area A and overlap delta carries k A delta as against a wall.
-        nodesInside(p.i, p.j, 0.5, 1.0, hits, evals);
-        nodesInside(p.j, p.i, 0.5, -1.0, hits, evals);
+        pairHits(p, hits, evals, searches);
         evalsTotal += evals;
-        Kin a{x[p.i], v[p.i], omega(p.i)}, b{x[p.j], v[p.j], omega(p.j)};
+        Kin a{x[p.i], v[p.i], omegaW[p.i]}, b{x[p.j], v[p.j], omegaW[p.j]};
         const double mi = tmpl[tid[p.i]].massG, mj = tmpl[tid[p.j]].massG;
         po.c = contact(hits, a, b, mi * mj / (mi + mj), p.xi);
       }
     }
     // Walls: per particle, six contact classes.
-    std::uint64_t wallEvals = 0;
+    std::uint64_t wallEvals = 0, wallSearches = 0;
     const int wallThreads = static_cast<std::int64_t>(n) >= 4 * opt.parallelMinItems ? threads : 1;
-#pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals)
+#pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals, wallSearches)
     {
       std::array<std::vector<Hit>, kWallClasses> hits;
 #pragma omp for schedule(dynamic, 16)
@@ -410,39 +512,67 @@ struct DemSystem::Impl {
           continue;
         }
         for (auto& h : hits) h.clear();
-        const Eigen::Matrix3d r = q[i].toRotationMatrix();
+        const Eigen::Matrix3d& r = rot[i];
         const bool voxel = opt.contact == ContactModel::kVoxel;
-        for (const auto& c : tp.coarse) {
-          ++wallEvals;
-          if (container->wallDistanceMm(x[i] + r * c.centre - wallShift) > c.radius) continue;
-          for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
-            const auto& f = tp.fine[fi];
+        WallList& wl = wallLists[i];
+        bool fresh = wl.valid;
+        if (fresh) {
+          const double move =
+              (r - wl.r).norm() * tp.radiusMm + (x[i] - wl.x).norm() + std::abs(zw - wl.lift);
+          fresh = move < nodeSkin;
+        }
+        auto probe = [&](std::uint32_t ni, const Vec3& p, double s) {
+          const Vec3 nw = container->inwardNormal(p - wallShift);
+          int axis = 0;
+          nw.cwiseAbs().maxCoeff(&axis);
+          const int cls = 2 * axis + (nw[axis] > 0 ? 1 : 0);
+          Hit h;
+          h.p = p;
+          h.depth = -s;
+          if (voxel) {
+            h.dir = -(r * tp.nodeFace[ni]);
+            h.kw = k * tp.nodeArea[ni];
+          } else {
+            h.dir = nw;
+            h.kw = k * tp.nodeLsArea[ni];
+          }
+          if (h.kw > 0) hits[static_cast<std::size_t>(cls)].push_back(h);
+        };
+        if (fresh) {
+          wallEvals += wl.nodes.size();
+          for (const std::uint32_t ni : wl.nodes) {
+            const Vec3 p = x[i] + r * tp.nodeP[ni];
+            const double s = container->wallDistanceMm(p - wallShift);
+            if (s < 0) probe(ni, p, s);
+          }
+        } else {
+          ++wallSearches;
+          wl.nodes.clear();
+          for (const auto& c : tp.coarse) {
             ++wallEvals;
-            if (container->wallDistanceMm(x[i] + r * f.centre - wallShift) > f.radius) continue;
-            for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
-              const Vec3 p = x[i] + r * tp.nodeP[ni];
+            if (container->wallDistanceMm(x[i] + r * c.centre - wallShift) > c.radius + nodeSkin)
+              continue;
+            for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
+              const auto& f = tp.fine[fi];
               ++wallEvals;
-              const double s = container->wallDistanceMm(p - wallShift);
-              if (s >= 0) continue;
-              const Vec3 nw = container->inwardNormal(p - wallShift);
-              int axis = 0;
-              nw.cwiseAbs().maxCoeff(&axis);
-              const int cls = 2 * axis + (nw[axis] > 0 ? 1 : 0);
-              Hit h;
-              h.p = p;
-              h.depth = -s;
-              if (voxel) {
-                h.dir = -(r * tp.nodeFace[ni]);
-                h.kw = k * tp.nodeArea[ni];
-              } else {
-                h.dir = nw;
-                h.kw = k * tp.nodeLsArea[ni];
+              if (container->wallDistanceMm(x[i] + r * f.centre - wallShift) > f.radius + nodeSkin)
+                continue;
+              for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
+                const Vec3 p = x[i] + r * tp.nodeP[ni];
+                ++wallEvals;
+                const double s = container->wallDistanceMm(p - wallShift);
+                if (s >= nodeSkin) continue;
+                wl.nodes.push_back(ni);
+                if (s < 0) probe(ni, p, s);
               }
-              if (h.kw > 0) hits[cls].push_back(h);
             }
           }
+          wl.r = r;
+          wl.x = x[i];
+          wl.lift = zw;
+          wl.valid = true;
         }
-        const Kin a{x[i], v[i], omega(i)};
+        const Kin a{x[i], v[i], omegaW[i]};
         Kin b;
         b.x = x[i];
         b.v = Vec3(0, 0, vw);
@@ -457,6 +587,7 @@ struct DemSystem::Impl {
       }
     }
     counters.nodeEvaluations += evalsTotal + wallEvals;
+    counters.nodeListRebuilds += searches + wallSearches;
     counters.pairChecks += pairs.size();
     counters.pairEvaluations += evaluated;
 
@@ -616,6 +747,11 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
   // zeta = -ln e / sqrt(pi^2 + ln^2 e); e = 0 is the critically damped limit.
   impl_->zeta = e <= 0 ? 1.0 : (e >= 1 ? 0.0 : -std::log(e) / std::hypot(kPi, std::log(e)));
   impl_->skin = 0.1 * impl_->rMax();
+  if (!(o.nodeSkinDiameters >= 0) || !std::isfinite(o.nodeSkinDiameters))
+    throw InputError("dem: node skin must be >= 0");
+  impl_->nodeSkin = o.nodeSkinDiameters * impl_->dMin();
+  for (const auto& tp : impl_->tmpl)
+    impl_->toShape.push_back(tp.principalToShape.toRotationMatrix());
   impl_->zetaTable[0] = impl_->zeta;
   for (std::size_t i = 1; i < impl_->zetaTable.size(); ++i)
     impl_->zetaTable[i] = calibratedZeta(e, 1.0 + 0.25 * static_cast<double>(i));
@@ -705,6 +841,7 @@ std::size_t DemSystem::addParticle(std::size_t templateIndex, const Vec3& positi
   s.wallT.push_back(Vec3::Zero());
   s.wallElastic.push_back(0);
   s.wallDepth.push_back(0);
+  s.wallLists.emplace_back();
   s.xBuild.push_back(positionMm);
   s.needRebuild = true;
   s.forcesValid = false;

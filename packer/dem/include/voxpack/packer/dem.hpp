@@ -89,7 +89,11 @@ struct DemOptions {
   double rainVolumeFraction = 0.3;  ///< solid fraction of an injection batch
   double rainSpeedMmPerS = 0;       ///< initial downward speed of injected particles
   double fillHeightPhiGuess = 0.6;  ///< --fill-height: density used to size the count
-  int threads = 1;                  ///< worker threads (results do not depend on it)
+  /// Node-list skin (in d): a contact keeps the nodes within this distance of the other body
+  /// and re-searches only after the relative pose moved that far. Tuning only: the forces
+  /// are the same for any value.
+  double nodeSkinDiameters = 0.03;
+  int threads = 1;  ///< worker threads (results do not depend on it)
   /// Fewest neighbour pairs (particles / 4) worth a parallel region; tuning only.
   std::int64_t parallelMinItems = 64;
 };
@@ -143,6 +147,7 @@ struct DemCounters {
   std::uint64_t pairEvaluations = 0;          ///< of which narrow-phase evaluated
   std::uint64_t nodeEvaluations = 0;          ///< signed-distance evaluations at nodes
   std::uint64_t neighbourRebuilds = 0;        ///< cell-list rebuilds
+  std::uint64_t nodeListRebuilds = 0;         ///< contact node-list searches (pairs + walls)
 };
 
 /// A rigid-body system of template particles in a container (the integrator).
