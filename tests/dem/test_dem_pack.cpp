@@ -55,6 +55,29 @@ TEST(DemPack, IdenticalForAnyThreadCount) {
   }
 }
 
+// Node lists are a cache: a contact re-searches its nodes only when the relative pose moved
+// more than the skin. Skin 0 searches every step; the forces, hence the bed, must not change.
+TEST(DemPack, NodeListsDoNotChangeTheForces) {
+  DemScene s = smallScene(16, 5);
+  s.shapes = {std::make_shared<TestCylinder>(3.0, 2.1)};
+  DemOptions o;
+  o.maxTimeS = 0.15;
+  o.friction = 0.3;
+  DemResult r[2];
+  for (int k = 0; k < 2; ++k) {
+    o.nodeSkinDiameters = k == 0 ? 0.0 : 0.05;
+    r[k] = runDem(s, o, nullProgress());
+  }
+  EXPECT_GE(r[0].counters.nodeListRebuilds, r[0].counters.pairEvaluations);
+  EXPECT_LT(r[1].counters.nodeListRebuilds, r[0].counters.nodeListRebuilds / 4);
+  ASSERT_EQ(r[0].particles.size(), r[1].particles.size());
+  ASSERT_GT(r[0].particles.size(), 8u);
+  for (std::size_t i = 0; i < r[0].particles.size(); ++i) {
+    EXPECT_EQ(r[0].particles.positionMm[i], r[1].particles.positionMm[i]) << i;
+    EXPECT_EQ(r[0].particles.orientation[i].coeffs(), r[1].particles.orientation[i].coeffs());
+  }
+}
+
 TEST(DemPack, SameSeedSameBedOtherSeedOtherBed) {
   DemOptions o;
   o.maxTimeS = 0.05;

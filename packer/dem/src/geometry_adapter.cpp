@@ -44,6 +44,11 @@ class FastSdfShape final : public DemShape {
     const double ox = std::max(dr, 0.0), oz = std::max(dz, 0.0);
     return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
   }
+  int analyticForm(double& r, double& hl) const override {
+    r = r_;
+    hl = hl_;
+    return cylinder_ ? 2 : 1;
+  }
   Vec3 normal(const Vec3& p) const override {
     if (!cylinder_) {
       const double n = p.norm();

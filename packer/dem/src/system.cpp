@@ -150,6 +150,24 @@ struct DemSystem::Impl {
   // Per template: principal frame -> shape frame as a matrix (the shape's distance function
   // takes shape-frame points; folding this into the pair transform saves a rotation a node).
   std::vector<Eigen::Matrix3d> toShape;
+  struct Analytic {
+    int form = 0;
+    double r = 0, hl = 0;
+  };
+  std::vector<Analytic> analytic;  // per template: DemShape::analyticForm
+
+  // Signed distance of template t's shape at a shape-frame point; the common shapes inline.
+  double sdfShape(std::uint32_t t, const Vec3& p) const {
+    const Analytic& a = analytic[t];
+    if (a.form == 1) return std::sqrt(p.squaredNorm()) - a.r;
+    if (a.form == 2) {
+      const double dr = std::sqrt(p.x() * p.x() + p.y() * p.y()) - a.r;
+      const double dz = std::abs(p.z()) - a.hl;
+      const double ox = std::max(dr, 0.0), oz = std::max(dz, 0.0);
+      return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
+    }
+    return tmpl[t].shape->signedDistanceMm(p);
+  }
   // Per particle, refreshed at each force evaluation: rotation and angular velocity.
   std::vector<Eigen::Matrix3d> rot;
   std::vector<Vec3> omegaW;
@@ -312,18 +330,18 @@ struct DemSystem::Impl {
       const double reachC = rb0 + c.radius;
       if ((c.centre - cba).squaredNorm() > reachC * reachC) continue;
       ++evals;
-      if (tb.shape->signedDistanceMm(m * c.centre + off) > c.radius + nodeSkin) continue;
+      if (sdfShape(tid[b], m * c.centre + off) > c.radius + nodeSkin) continue;
       for (std::uint32_t fi = c.begin; fi < c.end; ++fi) {
         const auto& f = ta.fine[fi];
         const double reachF = rb0 + f.radius;
         if ((f.centre - cba).squaredNorm() > reachF * reachF) continue;
         ++evals;
-        if (tb.shape->signedDistanceMm(m * f.centre + off) > f.radius + nodeSkin) continue;
+        if (sdfShape(tid[b], m * f.centre + off) > f.radius + nodeSkin) continue;
         for (std::uint32_t ni = f.begin; ni < f.end; ++ni) {
           if ((ta.nodeP[ni] - cba).squaredNorm() > rb0 * rb0) continue;
           const Vec3 pb = m * ta.nodeP[ni] + off;
           ++evals;
-          const double s = tb.shape->signedDistanceMm(pb);
+          const double s = sdfShape(tid[b], pb);
           if (s >= nodeSkin) continue;
           list.push_back(ni);
           if (s >= 0) continue;
@@ -344,7 +362,7 @@ struct DemSystem::Impl {
     evals += list.size();
     for (const std::uint32_t ni : list) {
       const Vec3 pb = m * ta.nodeP[ni] + off;
-      const double s = tb.shape->signedDistanceMm(pb);
+      const double s = sdfShape(tid[b], pb);
       if (s >= 0) continue;
       const Hit h = nodeHit(ta, tb, ni, pb, s, x[a], ra, rbS, factor, sign);
       if (h.kw > 0) hits.push_back(h);
@@ -750,8 +768,12 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
   if (!(o.nodeSkinDiameters >= 0) || !std::isfinite(o.nodeSkinDiameters))
     throw InputError("dem: node skin must be >= 0");
   impl_->nodeSkin = o.nodeSkinDiameters * impl_->dMin();
-  for (const auto& tp : impl_->tmpl)
+  for (const auto& tp : impl_->tmpl) {
     impl_->toShape.push_back(tp.principalToShape.toRotationMatrix());
+    Impl::Analytic a;
+    a.form = tp.shape->analyticForm(a.r, a.hl);
+    impl_->analytic.push_back(a);
+  }
   impl_->zetaTable[0] = impl_->zeta;
   for (std::size_t i = 1; i < impl_->zetaTable.size(); ++i)
     impl_->zetaTable[i] = calibratedZeta(e, 1.0 + 0.25 * static_cast<double>(i));

@@ -36,6 +36,12 @@ class DemShape {
   virtual double signedDistanceMm(const Vec3& p) const = 0;
   /// Outward unit normal at the surface point nearest to p (body frame).
   virtual Vec3 normal(const Vec3& p) const = 0;
+  /// Inlined fast path of signedDistanceMm for the DEM's inner loop: 1 = sphere of radius r,
+  /// 2 = cylinder along z of radius r and half length hl; 0 = none (virtual calls).
+  virtual int analyticForm(double& r, double& hl) const {
+    r = hl = 0;
+    return 0;
+  }
 };
 
 /// The container as the DEM sees it: an open-top vessel (walls extend upwards).
