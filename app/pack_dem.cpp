@@ -54,7 +54,7 @@ const std::vector<DemKey>& demKeys() {
       {"--time-step-fraction", "time_step_fraction",
        "DEM: auto time step as a fraction of the contact time t_c, (0, 0.1] (default 1/20)",
        &O::timeStepFraction},
-      {"--tap-amplitude", "tap_amplitude_mm", "DEM: container lift per tap, mm; 0 = 0.1 d",
+      {"--tap-amplitude", "tap_amplitude_mm", "DEM: container lift per tap, mm; 0 = 0.3 d",
        &O::tapAmplitudeMm},
       {"--tap-frequency", "tap_frequency_hz",
        "DEM: a tap is one sine period of this frequency, Hz (default 30)", &O::tapFrequencyHz},

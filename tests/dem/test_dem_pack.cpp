@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "analytic.hpp"
 #include "voxpack/core/errors.hpp"
@@ -86,6 +87,34 @@ TEST(DemPack, SameSeedSameBedOtherSeedOtherBed) {
   const DemResult c = runDem(smallScene(12, 4), o, nullProgress());
   EXPECT_EQ(a.particles.positionMm, b.particles.positionMm);
   EXPECT_NE(a.particles.positionMm, c.particles.positionMm);
+}
+
+// Tapping starts from the settled pour (same seed, same bed up to that moment) and may only
+// compact it: the centres sink on average, the bed ends settled, nothing leaves the container.
+TEST(DemPack, TappingCompactsTheSettledPour) {
+  DemScene s = smallScene(30, 11);
+  DemOptions o;
+  o.friction = 0.3;
+  o.maxTimeS = 3;
+  const DemResult poured = runDem(s, o, nullProgress());
+  o.tapCycles = 4;
+  const DemResult tapped = runDem(s, o, nullProgress());
+  ASSERT_EQ(poured.status, packer::dem::DemStatus::kSettled);
+  ASSERT_EQ(tapped.status, packer::dem::DemStatus::kSettled);
+  EXPECT_NEAR(tapped.settleTimeS, poured.settleTimeS, 1e-12);  // identical until the taps
+  EXPECT_GT(tapped.simulatedTimeS, poured.simulatedTimeS + 4 * (1.0 / 30 + 0.1) - 1e-9);
+  ASSERT_EQ(poured.particles.size(), tapped.particles.size());
+  double zp = 0, zt = 0;
+  for (std::size_t i = 0; i < poured.particles.size(); ++i) {
+    zp += poured.particles.positionMm[i].z();
+    zt += tapped.particles.positionMm[i].z();
+  }
+  zp /= static_cast<double>(poured.particles.size());
+  zt /= static_cast<double>(tapped.particles.size());
+  RecordProperty("mean_height_poured_mm", std::to_string(zp));
+  RecordProperty("mean_height_tapped_mm", std::to_string(zt));
+  EXPECT_LT(zt, zp - 0.01);
+  EXPECT_TRUE(allFiniteInside(tapped, *s.container));
 }
 
 // Stiffness x1000: the step shrinks by ~sqrt(1000) and the run stays finite and contained.

@@ -211,7 +211,7 @@ struct DemSystem::Impl {
     if (velocity) *velocity = 0.5 * a * w * std::sin(w * local);
     return 0.5 * a * (1 - std::cos(w * local));
   }
-  double tapAmplitude() const { return opt.tapAmplitudeMm > 0 ? opt.tapAmplitudeMm : 0.1 * dMin(); }
+  double tapAmplitude() const { return opt.tapAmplitudeMm > 0 ? opt.tapAmplitudeMm : 0.3 * dMin(); }
   double tapEnd() const { return tapStart + tapCycles * (1.0 / opt.tapFrequencyHz + opt.tapRestS); }
 
   Vec3 omega(std::size_t i) const {

@@ -83,7 +83,7 @@ struct DemOptions {
   double gravityMmPerS2 = 9810.0;                  ///< gravity magnitude, acting along -z
   double tangentialStiffnessRatio = 2.0 / 7.0;     ///< k_t / k_n (elastic spheres)
   int tapCycles = 0;                               ///< taps after the pour settled (0 = none)
-  double tapAmplitudeMm = 0;                       ///< container lift per tap; 0 = 0.1 d
+  double tapAmplitudeMm = 0;                       ///< container lift per tap; 0 = 0.3 d
   double tapFrequencyHz = 30;       ///< one tap = one sine period of the container lift
   double tapRestS = 0.1;            ///< free relaxation after each tap (s)
   bool sleeping = true;             ///< particles at rest away from motion are frozen
