@@ -117,7 +117,9 @@ struct DemSystem::Impl {
   std::vector<Quat> q;  // principal -> world
   std::vector<std::uint32_t> tid;
   std::vector<std::uint8_t> awake;
-  std::vector<std::uint32_t> slowSteps;
+  std::vector<std::uint32_t> slowSteps;  // steps in the current rest window
+  std::vector<Vec3> xRest;               // position at the start of the rest window
+  std::vector<Quat> qRest;               // orientation at the start of the rest window
   std::vector<std::array<Vec3, kWallClasses>> wallXi;
   std::vector<Vec3> wallF, wallT;
   std::vector<double> wallElastic, wallDepth;
@@ -669,11 +671,26 @@ struct DemSystem::Impl {
     }
   }
 
+  // Sleeping: a particle falls asleep when, over a window of sleepTime, it never moved
+  // faster than vWake and its net displacement (centre plus rotation at its bounding radius)
+  // stayed below vSleep x window. The net displacement, not the instantaneous speed, is what
+  // matters: contact forces leave a few particles of a bed jittering about a fixed place
+  // (~1e-5 mm at a few kHz), which a speed test never lets sleep, and those few then keep
+  // the whole bed from meeting the settling thresholds.
+  void restartWindow(std::size_t i) {
+    slowSteps[i] = 0;
+    xRest[i] = x[i];
+    qRest[i] = q[i];
+  }
+
   void sleepUpdate() {
     const std::size_t n = x.size();
     const bool moving = wallMovingAt(t);
     if (!opt.sleeping || moving) {
-      for (std::size_t i = 0; i < n; ++i) awake[i] = 1;
+      for (std::size_t i = 0; i < n; ++i) {
+        awake[i] = 1;
+        restartWindow(i);
+      }
       return;
     }
     const double vSleep = opt.settleVelocity * std::sqrt(opt.gravityMmPerS2 * dMin());
@@ -684,26 +701,36 @@ struct DemSystem::Impl {
     for (std::size_t i = 0; i < n; ++i) {
       if (!awake[i]) continue;
       speed[i] = v[i].norm() + omega(i).norm() * tmpl[tid[i]].radiusMm;
-      slowSteps[i] = speed[i] < vSleep ? slowSteps[i] + 1 : 0;
+      if (speed[i] < vWake)
+        ++slowSteps[i];
+      else
+        restartWindow(i);
     }
     for (const Pair& p : pairs) {
-      if (speed[p.i] >= vSleep) {
-        slowSteps[p.j] = 0;
-        if (!awake[p.j] && speed[p.i] > vWake) awake[p.j] = 2;  // woken this step
+      if (speed[p.i] >= vWake) {
+        restartWindow(p.j);
+        if (!awake[p.j]) awake[p.j] = 2;  // woken this step
       }
-      if (speed[p.j] >= vSleep) {
-        slowSteps[p.i] = 0;
-        if (!awake[p.i] && speed[p.j] > vWake) awake[p.i] = 2;
+      if (speed[p.j] >= vWake) {
+        restartWindow(p.i);
+        if (!awake[p.i]) awake[p.i] = 2;
       }
     }
     for (std::size_t i = 0; i < n; ++i) {
       if (awake[i] == 2) {
         awake[i] = 1;
-        slowSteps[i] = 0;
+        restartWindow(i);
       } else if (awake[i] && slowSteps[i] >= need) {
-        awake[i] = 0;
-        v[i].setZero();
-        L[i].setZero();
+        const double turn =
+            2 * std::asin(std::min(1.0, (qRest[i].conjugate() * q[i]).vec().norm()));
+        const double moved = (x[i] - xRest[i]).norm() + turn * tmpl[tid[i]].radiusMm;
+        if (moved < vSleep * static_cast<double>(slowSteps[i]) * dt) {
+          awake[i] = 0;
+          v[i].setZero();
+          L[i].setZero();
+        } else {
+          restartWindow(i);
+        }
       }
     }
   }
@@ -857,6 +884,8 @@ std::size_t DemSystem::addParticle(std::size_t templateIndex, const Vec3& positi
   s.tid.push_back(static_cast<std::uint32_t>(templateIndex));
   s.awake.push_back(1);
   s.slowSteps.push_back(0);
+  s.xRest.push_back(positionMm);
+  s.qRest.push_back(qp);
   s.wallXi.push_back({});
   for (auto& xi : s.wallXi.back()) xi.setZero();
   s.wallF.push_back(Vec3::Zero());
@@ -927,7 +956,7 @@ void DemSystem::motionMeasures(double& maxSpeed, double& meanKinetic) const {
 }
 void DemSystem::wakeAll() {
   for (auto& a : impl_->awake) a = 1;
-  for (auto& c : impl_->slowSteps) c = 0;
+  for (std::size_t i = 0; i < impl_->x.size(); ++i) impl_->restartWindow(i);
 }
 
 }  // namespace voxpack::packer::dem
