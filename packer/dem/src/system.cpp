@@ -685,7 +685,10 @@ struct DemSystem::Impl {
 
   void sleepUpdate() {
     const std::size_t n = x.size();
-    const bool moving = wallMovingAt(t);
+    // Sleeping is allowed in the rests between taps (every lift wakes all again).
+    double wallSpeed = 0;
+    wallOffset(t, &wallSpeed);
+    const bool moving = wallSpeed != 0 || wallLiftingAt(t);
     if (!opt.sleeping || moving) {
       for (std::size_t i = 0; i < n; ++i) {
         awake[i] = 1;
@@ -733,6 +736,14 @@ struct DemSystem::Impl {
         }
       }
     }
+  }
+
+  // Inside the lift of a tap (not its rest).
+  bool wallLiftingAt(double time) const {
+    if (!wallMovingAt(time)) return false;
+    const double period = 1.0 / opt.tapFrequencyHz + opt.tapRestS;
+    const double local = std::fmod(time - tapStart, period);
+    return local < 1.0 / opt.tapFrequencyHz;
   }
 
   bool wallMovingAt(double time) const {
