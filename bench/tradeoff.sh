@@ -4,6 +4,7 @@
 # the measured tables of docs/tradeoff.md.
 #   bench/tradeoff.sh            full sweep (6, 8, 10, 15, 20, 30 voxels per d; 3 seeds)
 #   bench/tradeoff.sh --quick    reduced sweep (< 10 minutes on 2 cores)
+#   --modes mc,dem --scenes cylinders,spheres --vpd 6,10 --seeds 1,2 --threads N (default 1)
 # Output: out/tradeoff/ (override with VOXPACK_TRADEOFF_OUT).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"

@@ -81,7 +81,16 @@ def main():
     ap.add_argument("--modes", default="")
     ap.add_argument("--vpd", default="")
     ap.add_argument("--seeds", default="")
+    # One thread per run by default: timings then do not depend on what else the machine runs
+    # (an OpenMP team on an oversubscribed machine can be 10x slower) and CPU = wall.
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--combine", default="",
+                    help="comma-separated output dirs of earlier sweeps: merge their tables "
+                         "and plots into --out without running anything")
     a = ap.parse_args()
+    if a.combine:
+        combine(a.out, a.combine.split(","))
+        return
     plan = dict(QUICK if a.quick else FULL)
     if a.scenes:
         plan["scenes"] = a.scenes.split(",")
@@ -91,6 +100,7 @@ def main():
         plan["vpd"] = [float(x) for x in a.vpd.split(",")]
     if a.seeds:
         plan["seeds"] = [int(x) for x in a.seeds.split(",")]
+    plan["threads"] = a.threads
     os.makedirs(a.out, exist_ok=True)
     beds = os.path.join(a.out, "beds")
     os.makedirs(beds, exist_ok=True)
@@ -108,7 +118,7 @@ def main():
                 err = shape_error(a.voxpack, sc["shape"], voxel)
                 for seed in plan["seeds"]:
                     bed = os.path.join(beds, f"{scene_name}_{mode}_{vpd:g}_{seed}.h5")
-                    cmd = [a.voxpack, "--quiet", "pack", "--mode", mode, "--shape", sc["shape"],
+                    cmd = [a.voxpack, "--quiet", "--threads", str(a.threads), "pack", "--mode", mode, "--shape", sc["shape"],
                            "--container", container, "--voxel-size", f"{voxel:.6g}",
                            "--count", str(count), "--seed", str(seed), "-o", bed]
                     try:
@@ -122,7 +132,7 @@ def main():
                            "status": None, "bed": bed}
                     if rc == 0:
                         sj = os.path.join(beds, os.path.basename(bed)[:-3] + "_stats.json")
-                        r2, _, _, _ = run([a.voxpack, "--quiet", "stats", bed, "-o", sj,
+                        r2, _, _, _ = run([a.voxpack, "--quiet", "--threads", str(a.threads), "stats", bed, "-o", sj,
                                            "--only", "axial", "--particle-diameter-mm",
                                            f"{sc['d']}", "--trim-mm", f"{sc['d']}"], log, a.timeout)
                         if r2 == 0:
@@ -148,7 +158,7 @@ def main():
                 if not os.path.exists(ref) or not cands:
                     continue
                 cdir = os.path.join(a.out, f"compare_{scene_name}_{mode}_{seed}")
-                rc, _, _, _ = run([a.voxpack, "--quiet", "compare", "--reference", ref] +
+                rc, _, _, _ = run([a.voxpack, "--quiet", "--threads", str(a.threads), "compare", "--reference", ref] +
                                   [c["bed"] for c in cands] +
                                   ["-o", cdir, "--no-figures", "--particle-diameter",
                                    f"{sc['d']}"], log, a.timeout)
@@ -192,6 +202,25 @@ def main():
     print(f"tradeoff: {len(rows)} runs in {time.monotonic()-t_start:.0f} s; results in {a.out}")
 
 
+def combine(out, dirs):
+    """One table, CSV and figure from several sweeps (e.g. the MC and the DEM half)."""
+    agg, plans = [], []
+    for d in dirs:
+        j = json.load(open(os.path.join(d, "tradeoff.json")))
+        plans.append(j["plan"])
+        agg += [{k: (float("nan") if v is None else v) for k, v in r.items()} for r in j["summary"]]
+    agg.sort(key=lambda r: (r["scene"], r["mode"], r["vpd"]))
+    os.makedirs(out, exist_ok=True)
+    with open(os.path.join(out, "tradeoff.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(agg[0].keys()))
+        w.writeheader()
+        for r in agg:
+            w.writerow(r)
+    write_markdown(out, agg, {"combined": plans}, float("nan"))
+    plot(out, agg)
+    print(f"tradeoff: combined {len(agg)} rows from {len(dirs)} sweeps into {out}")
+
+
 def fmt(x, spec):
     return "–" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
 
@@ -207,7 +236,7 @@ def write_markdown(out, agg, plan, total):
                      f"{fmt(r['density_mean'], '.4f')} ± {fmt(r['density_std'], '.4f')} | "
                      f"{fmt(r['radial_rmse'], '.4f')} | {fmt(r['s2_rmse'], '.5f')} |")
     lines.append("")
-    lines.append(f"Total wall time of the sweep: {total:.0f} s. Plan: {json.dumps(plan)}")
+    lines.append(f"Total wall time of the sweep: {fmt(total, '.0f')} s. Plan: {json.dumps(plan)}")
     with open(os.path.join(out, "tradeoff_table.md"), "w") as f:
         f.write("\n".join(lines) + "\n")
 
