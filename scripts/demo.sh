@@ -20,9 +20,9 @@ voxel_mm="${VOXPACK_DEMO_VOXEL_MM:-0.9}"     # paper: 0.18 mm (NMR)
 height_mm="${VOXPACK_DEMO_HEIGHT_MM:-10}"    # bed height; the paper's bed is ~60 mm
 container="cylinder:d=43.3,h=60"         # the paper's column (room for the DEM rain zone)
 trim_mm="${VOXPACK_DEMO_TRIM_MM:-1}"         # slices dropped at each bed end
-# Softer contacts (overlap 3 % of d under the bed's weight instead of 0.4 %) and a time
-# step of t_c/10 make DEM ~17x cheaper per simulated second; the time cap bounds the run.
-dem_fast=(--target-overlap 0.03 --time-step-fraction 0.1 --max-time "${VOXPACK_DEMO_DEM_MAX_TIME_S:-1.0}")
+# DEM runs with the sample's settings to a settled bed (seconds at this size); extra DEM
+# flags can be given through VOXPACK_DEMO_DEM_FLAGS.
+read -r -a dem_flags <<<"${VOXPACK_DEMO_DEM_FLAGS:-}"
 reference_image="$root/samples/reference_mri.nrrd"
 
 # VOXPACK_DEMO_SKIP_BUILD=1 reuses an existing binary in $build (re-runs of the demo).
@@ -59,13 +59,13 @@ start=$SECONDS
 step pack_mc "$bin" --quiet --threads "$threads" pack --config "$root/samples/paper_mc.toml" \
   --mode mc "${scene[@]}" --seed 1 -o "$out/mc.h5"
 step pack_dem "$bin" --quiet --threads "$threads" pack --config "$root/samples/paper_dem.toml" \
-  --mode dem "${scene[@]}" "${dem_fast[@]}" --seed 1 -o "$out/dem.h5"
+  --mode dem "${scene[@]}" "${dem_flags[@]}" --seed 1 -o "$out/dem.h5"
 # Reference: an independent DEM bed (other seed) imaged as MRI by `voxpack phantom`
 # (bundled in samples/, see samples/README.md) and segmented like a real scan.
 if [[ "${VOXPACK_DEMO_REMAKE_REFERENCE:-0}" == 1 || ! -f "$reference_image" ]]; then
   step pack_reference "$bin" --quiet --threads "$threads" pack \
     --config "$root/samples/paper_dem.toml" --mode dem "${scene[@]}" --seed 2 \
-    "${dem_fast[@]}" -o "$out/reference_truth.h5"
+    "${dem_flags[@]}" -o "$out/reference_truth.h5"
   step phantom "$bin" --quiet --threads "$threads" phantom "$out/reference_truth.h5" \
     --modality mri --snr 10 --blur-mm 0.2 --bias 0.1 --seed 3 -o "$out/reference_mri.nrrd"
   reference_image="$out/reference_mri.nrrd"
