@@ -43,6 +43,7 @@ TEST(DemPack, IdenticalForAnyThreadCount) {
   o.maxTimeS = 0.12;
   o.friction = 0.3;
   o.parallelMinItems = 1;  // parallel regions even for this small scene
+  o.parallelMinNodeWork = 0;
   DemResult r[2];
   for (int t = 0; t < 2; ++t) {
     o.threads = t + 1;

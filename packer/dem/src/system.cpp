@@ -472,6 +472,9 @@ struct DemSystem::Impl {
     double vw = 0;
     const double zw = wallOffset(t, &vw);
     const Vec3 wallShift(0, 0, zw);
+    double meanNodes = 0;
+    for (std::size_t i = 0; i < n; ++i) meanNodes += static_cast<double>(tmpl[tid[i]].nodeP.size());
+    meanNodes /= std::max<double>(1.0, static_cast<double>(n));
     rot.resize(n);
     omegaW.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -486,7 +489,9 @@ struct DemSystem::Impl {
     const std::int64_t np = static_cast<std::int64_t>(pairs.size());
     // Small systems run serial: a parallel region costs more than it saves there, and far
     // more on an oversubscribed machine.
-    const int pairThreads = np >= opt.parallelMinItems ? threads : 1;
+    const bool worthIt = np >= opt.parallelMinItems &&
+                         static_cast<double>(np) * meanNodes >= opt.parallelMinNodeWork;
+    const int pairThreads = worthIt ? threads : 1;
 #pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated, searches)
     {
       std::vector<Hit> hits;
@@ -513,7 +518,10 @@ struct DemSystem::Impl {
     }
     // Walls: per particle, six contact classes.
     std::uint64_t wallEvals = 0, wallSearches = 0;
-    const int wallThreads = static_cast<std::int64_t>(n) >= 4 * opt.parallelMinItems ? threads : 1;
+    const int wallThreads = static_cast<std::int64_t>(n) >= 4 * opt.parallelMinItems &&
+                                    static_cast<double>(n) * meanNodes >= opt.parallelMinNodeWork
+                                ? threads
+                                : 1;
 #pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals, wallSearches)
     {
       std::array<std::vector<Hit>, kWallClasses> hits;
