@@ -38,11 +38,7 @@ class FastSdfShape final : public DemShape {
   double boundingRadiusMm() const override { return s_->boundingRadiusMm(); }
   bool inside(const Vec3& p) const override { return s_->inside(p); }
   double signedDistanceMm(const Vec3& p) const override {
-    if (!cylinder_) return std::sqrt(p.squaredNorm()) - r_;
-    const double dr = std::sqrt(p.x() * p.x() + p.y() * p.y()) - r_;
-    const double dz = std::abs(p.z()) - hl_;
-    const double ox = std::max(dr, 0.0), oz = std::max(dz, 0.0);
-    return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
+    return analyticSignedDistanceMm(cylinder_ ? 2 : 1, r_, hl_, p);
   }
   int analyticForm(double& r, double& hl) const override {
     r = r_;

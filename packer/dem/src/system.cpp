@@ -157,17 +157,12 @@ struct DemSystem::Impl {
     double r = 0, hl = 0;
   };
   std::vector<Analytic> analytic;  // per template: DemShape::analyticForm
+  double nodeTotal = 0;            // surface nodes of all particles (thread threshold)
 
   // Signed distance of template t's shape at a shape-frame point; the common shapes inline.
   double sdfShape(std::uint32_t t, const Vec3& p) const {
     const Analytic& a = analytic[t];
-    if (a.form == 1) return std::sqrt(p.squaredNorm()) - a.r;
-    if (a.form == 2) {
-      const double dr = std::sqrt(p.x() * p.x() + p.y() * p.y()) - a.r;
-      const double dz = std::abs(p.z()) - a.hl;
-      const double ox = std::max(dr, 0.0), oz = std::max(dz, 0.0);
-      return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
-    }
+    if (a.form != 0) return analyticSignedDistanceMm(a.form, a.r, a.hl, p);
     return tmpl[t].shape->signedDistanceMm(p);
   }
   // Per particle, refreshed at each force evaluation: rotation and angular velocity.
@@ -472,9 +467,7 @@ struct DemSystem::Impl {
     double vw = 0;
     const double zw = wallOffset(t, &vw);
     const Vec3 wallShift(0, 0, zw);
-    double meanNodes = 0;
-    for (std::size_t i = 0; i < n; ++i) meanNodes += static_cast<double>(tmpl[tid[i]].nodeP.size());
-    meanNodes /= std::max<double>(1.0, static_cast<double>(n));
+    const double meanNodes = nodeTotal / std::max<double>(1.0, static_cast<double>(n));
     rot.resize(n);
     omegaW.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -693,11 +686,9 @@ struct DemSystem::Impl {
 
   void sleepUpdate() {
     const std::size_t n = x.size();
+    if (!opt.sleeping) return;  // everyone stays awake; rest windows are never read
     // Sleeping is allowed in the rests between taps (every lift wakes all again).
-    double wallSpeed = 0;
-    wallOffset(t, &wallSpeed);
-    const bool moving = wallSpeed != 0 || wallLiftingAt(t);
-    if (!opt.sleeping || moving) {
+    if (wallLiftingAt(t)) {
       for (std::size_t i = 0; i < n; ++i) {
         awake[i] = 1;
         restartWindow(i);
@@ -912,6 +903,7 @@ std::size_t DemSystem::addParticle(std::size_t templateIndex, const Vec3& positi
   s.wallElastic.push_back(0);
   s.wallDepth.push_back(0);
   s.wallLists.emplace_back();
+  s.nodeTotal += static_cast<double>(tp.nodeP.size());
   s.xBuild.push_back(positionMm);
   s.needRebuild = true;
   s.forcesValid = false;

@@ -8,6 +8,8 @@
 /// overlaps (~1e-3 mm) sit on coordinates of ~1e2 mm, and free fall must match 1/2 g t^2 to
 /// 1e-6. See docs/dem.md for the derivations.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -43,6 +45,16 @@ class DemShape {
     return 0;
   }
 };
+
+/// Exact signed distance (mm) of DemShape::analyticForm `form` (1 sphere of radius r,
+/// 2 cylinder along z of radius r and half length hl) at a shape-frame point.
+inline double analyticSignedDistanceMm(int form, double r, double hl, const Vec3& p) {
+  if (form == 1) return std::sqrt(p.squaredNorm()) - r;
+  const double dr = std::sqrt(p.x() * p.x() + p.y() * p.y()) - r;
+  const double dz = std::abs(p.z()) - hl;
+  const double ox = std::max(dr, 0.0), oz = std::max(dz, 0.0);
+  return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
+}
 
 /// The container as the DEM sees it: an open-top vessel (walls extend upwards).
 class DemContainer {
