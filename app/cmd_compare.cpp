@@ -58,7 +58,7 @@ class CompareCommand final : public Command {
     if (!figureScript_.empty()) checkReadable(figureScript_, "--figure-script");
     ensureWritableDirectory(output_, true);
 
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     compare::CompareOptions opt;
     opt.stats.particleDiameterMm = particleDiameterMm_;
     opt.stats.trimMm = trimMm_;

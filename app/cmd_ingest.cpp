@@ -127,7 +127,7 @@ class IngestCommand final : public Command {
     }
     const fs::path out = output_;
     ensureWritableDirectory(out.has_parent_path() ? out.parent_path() : fs::path("."), false);
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
     writeBed(out, r.bed);

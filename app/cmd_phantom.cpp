@@ -59,7 +59,7 @@ class PhantomCommand final : public Command {
     const PixelType type = parsePixelType(pixel_);
     const fs::path out = output_;
     const Bed bed = readBed(input_);
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     const Grid<float> img = makePhantom(bed, o_, resolveThreads(global.threads), progress);
     std::ostringstream snr;
     snr << o_.snr;

@@ -70,7 +70,7 @@ class StatsCommand final : public Command {
       bed = stats::cropBed(bed, *roi, &box);
       roiRecord = stats::roiJson(*roi, box);
     }
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     nlohmann::json stats = stats::computeStats(bed, o_, progress);
     stats["roi_mm"] = roiRecord;
     stats["input"] = input_;

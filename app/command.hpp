@@ -9,6 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "voxpack/core/memory.hpp"
+#include "voxpack/core/progress.hpp"
+
 namespace voxpack::app {
 
 /// Options every command shares (registered on the top-level app).
@@ -16,6 +19,23 @@ struct GlobalOptions {
   int threads = 0;      ///< --threads N (0 = all hardware threads)
   bool quiet = false;   ///< --quiet: no progress, no messages
   std::string commandLine;  ///< the whole command line, for provenance
+  MemoryBudget memory;      ///< --memory-limit SIZE (default 75 % of the memory available)
+  Progress* progress = nullptr;  ///< extra progress/cancel hook (the Python module), or null
+};
+
+/// The progress of one command: the stderr bar plus the caller's hook, cancelled by
+/// the hook or by SIGINT/SIGTERM.
+class CommandProgress final : public Progress {
+ public:
+  /// Progress for a command run with `global`.
+  explicit CommandProgress(const GlobalOptions& global);
+  void report(std::string_view stage, double fraction) override;
+  bool cancelled() const override;
+  void message(std::string_view text) override;
+
+ private:
+  StderrProgress stderr_;
+  Progress* external_;
 };
 
 /// A voxpack subcommand.
@@ -39,6 +59,8 @@ std::unique_ptr<Command> makeIngestCommand();   ///< voxpack ingest
 std::unique_ptr<Command> makePhantomCommand();  ///< voxpack phantom
 std::unique_ptr<Command> makeStatsCommand();    ///< voxpack stats
 std::unique_ptr<Command> makeCompareCommand();  ///< voxpack compare
+std::unique_ptr<Command> makeFlowCommand();     ///< voxpack flow
+std::unique_ptr<Command> makeExportCommand();   ///< voxpack export
 
 /// Every command, in --help order.
 std::vector<std::unique_ptr<Command>> allCommands();

@@ -11,6 +11,8 @@ std::vector<std::unique_ptr<Command>> allCommands() {
   v.push_back(makePhantomCommand());
   v.push_back(makeStatsCommand());
   v.push_back(makeCompareCommand());
+  v.push_back(makeFlowCommand());
+  v.push_back(makeExportCommand());
   return v;
 }
 

@@ -160,7 +160,7 @@ class DemMode final : public PackMode {
     ds.fillHeightMm = scene.fillHeightMm;
     ds.seed = scene.seed;
 
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress);
     Bed bed = packer::dem::demBed(r.particles, shapes, *container, scene.voxelSizeMm,
                                   scene.supersample, o.threads, progress);

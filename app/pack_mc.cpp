@@ -107,7 +107,7 @@ class McMode final : public PackMode {
       mixture.push_back({packer::parseShape(sf.spec), sf.fraction});
     const auto container = packer::parseContainer(scene.containerSpec);
 
-    StderrProgress progress(global.quiet);
+    CommandProgress progress(global);
     packer::McResult r = packer::packMonteCarlo(mixture, *container, o, scene.seed, progress);
 
     nlohmann::json prov = scene.provenance;

@@ -35,6 +35,11 @@ struct PackScene {
   std::filesystem::path config;       ///< --config SCENE.toml (may be empty)
   int supersample = 1;                ///< digitisation samples per axis
   nlohmann::json provenance;          ///< version, command line, scene (mode adds its own)
+  std::filesystem::path checkpoint;   ///< --checkpoint FILE: resumable state (empty = none)
+  double checkpointEverySeconds = 0;  ///< --checkpoint-every SECONDS of wall time (0 = never)
+  std::filesystem::path resume;       ///< --resume FILE: continue from a checkpoint
+  std::filesystem::path from;         ///< --from BED.h5: continue from an existing bed
+  bool checkOnly = false;             ///< --check: validate everything, print, pack nothing
 };
 
 /// Flags and TOML keys of one packing mode.

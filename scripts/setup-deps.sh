@@ -10,6 +10,9 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   python3-matplotlib python3-numpy python3-scipy python3-h5py
   chromium
+  libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
+  pybind11-dev python3-dev python3-pytest python3-vtk9 python3-meshio python3-tifffile
+  clang libfuzzer-14-dev libclang-rt-14-dev
 )
 
 missing=()

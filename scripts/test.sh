@@ -1,10 +1,29 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds Release, runs every test (ctest).
+# Installs what is missing, builds Release, runs every test (ctest: the C++ suites, the
+# CLI tests, the pytest suite and the MPI tests are all registered with ctest).
+# In CI (CI=true) or with VOXPACK_SANITIZER_STAGE=1 a second build with ASan + UBSan
+# runs the unit and CLI tests again (build-asan/).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${VOXPACK_BUILD_DIR:-$root/build}"
+# ccache keys on paths relative to the checkout, so a fresh clone reuses the cache.
+export CCACHE_BASEDIR="$root"
 bash "$root/scripts/setup-deps.sh"
+# The main build includes the MPI slab decomposition (tests run mpirun on loopback).
+export VOXPACK_MPI="${VOXPACK_MPI:-ON}"
 bash "$root/scripts/build.sh"
 cd "$build"
 ctest --output-on-failure -j "${VOXPACK_TEST_JOBS:-2}" --timeout 600
 echo "test: results in $build/Testing"
+
+if [[ "${CI:-}" == "true" || "${VOXPACK_SANITIZER_STAGE:-0}" == "1" ]]; then
+  asan="${VOXPACK_ASAN_BUILD_DIR:-$root/build-asan}"
+  VOXPACK_BUILD_DIR="$asan" bash "$root/scripts/build.sh" -DVOXPACK_SANITIZE=address,undefined \
+    -DVOXPACK_BUILD_BENCH=OFF -DVOXPACK_PYTHON=OFF -DVOXPACK_MPI=OFF
+  cd "$asan"
+  # LeakSanitizer under ptrace-less CI is fine; OpenMP's runtime keeps its pools alive.
+  export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+  ctest --output-on-failure -j "${VOXPACK_TEST_JOBS:-2}" --timeout 900 -LE "no_sanitizer"
+  echo "test: sanitizer results in $asan/Testing"
+fi

@@ -38,6 +38,13 @@ class UsageError : public InputError {
   using InputError::InputError;
 };
 
+/// The work would need more memory (or other resource) than its budget allows; the
+/// message gives the estimate and the limit (exit 2: the user can raise the limit).
+class ResourceError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
 /// Long work stopped because the progress hook asked to cancel.
 class Cancelled : public Error {
  public:
