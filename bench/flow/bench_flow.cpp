@@ -1,0 +1,213 @@
+// voxpack_bench_flow MODE [OUT.json]: MODE = sc | speed | tau | precision.
+//   sc:        simple-cubic arrays over Zick & Homsy's range at 16/24/32/48 voxels per d
+//   speed:     MLUPS on 1 and 2 threads against a copy kernel measured in the same run
+//   tau:       steps to convergence against the relaxation time (k unchanged)
+//   precision: float32 against float64 populations on the same cells
+// Wall and CPU seconds are both written (the machine is shared: see "load").
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "flow_fixtures.hpp"
+#include "voxpack/flow/lbm.hpp"
+
+using namespace voxpack;
+using nlohmann::json;
+
+namespace {
+
+double cpuSeconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
+json load() {
+  double l[3] = {0, 0, 0};
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (std::fscanf(f, "%lf %lf %lf", &l[0], &l[1], &l[2]) != 3) l[0] = -1;
+    std::fclose(f);
+  }
+  return {l[0], l[1], l[2]};
+}
+
+struct ZH {
+  double phi, k;
+};
+const ZH kZickHomsy[] = {{0.027, 2.008}, {0.064, 2.810}, {0.125, 4.292}, {0.216, 7.442},
+                         {0.343, 15.4},  {0.45, 28.1},   {0.5236, 42.1}};
+
+json runCell(double phi, double perD, double tau, flow::Precision prec, int threads, double tol) {
+  flow::LbmDomain d;
+  double dia = 0;
+  const double phiD = test::scUnitCell(phi, perD, d, &dia);
+  flow::LbmOptions o;
+  o.tauPlus = tau;
+  o.force = 1e-6;
+  o.tolerance = tol;
+  o.checkInterval = 100;
+  o.maxSteps = 200000;
+  o.precision = prec;
+  o.threads = threads;
+  const double c0 = cpuSeconds();
+  const flow::LbmResult r = flow::runLbm(d, o);
+  const double cpu = cpuSeconds() - c0;
+  const double us = r.sumAxialVelocity / static_cast<double>(d.fluid.size());
+  const double k = flow::latticeViscosity(tau) * us / o.force / (dia * dia);
+  json j = {{"phi_target", phi},
+            {"phi_digital", phiD},
+            {"voxels_per_d", dia},
+            {"box", d.dims[0]},
+            {"k_over_d2", k},
+            {"steps", r.steps},
+            {"status", flow::statusName(r.status)},
+            {"wall_s", r.wallS},
+            {"cpu_s", cpu},
+            {"mlups", r.mlups},
+            {"tau", tau},
+            {"cells", r.fluidCells},
+            {"residual", r.residual}};
+  for (const ZH& z : kZickHomsy)
+    if (std::abs(z.phi - phi) < 1e-9) {
+      const double ref = 1.0 / (18.0 * phi * z.k);
+      j["k_over_d2_zick_homsy"] = ref;
+      j["rel_error"] = k / ref - 1.0;
+    }
+  return j;
+}
+
+// Copy kernel b = a (float), bytes moved per second counting read + write.
+double copyBandwidth(std::size_t n, int threads) {
+  std::vector<float> a(n, 1.0f), b(n, 0.0f);
+  const std::int64_t nn = static_cast<std::int64_t>(n);
+  double best = 0;
+  for (int rep = 0; rep < 5; ++rep) {
+    const auto t0 = std::chrono::steady_clock::now();
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (std::int64_t i = 0; i < nn; ++i)
+      b[static_cast<std::size_t>(i)] = a[static_cast<std::size_t>(i)];
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    best = std::max(best, 2.0 * static_cast<double>(n) * sizeof(float) / s);
+    std::swap(a, b);
+  }
+  return best;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: voxpack_bench_flow sc|speed|tau|precision [OUT.json] [opts]\n");
+    return 2;
+  }
+  const std::string mode = argv[1];
+  json out = {{"mode", mode}, {"load_start", load()}};
+  const auto t0 = std::chrono::steady_clock::now();
+  if (mode == "sc") {
+    // Resolutions from argv[3] (comma list), default 16,24,32; cells capped by argv[4].
+    std::vector<double> res = {16, 24, 32};
+    if (argc > 3) {
+      res.clear();
+      for (char* t = std::strtok(argv[3], ","); t; t = std::strtok(nullptr, ","))
+        res.push_back(std::atof(t));
+    }
+    const double cap = argc > 4 ? std::atof(argv[4]) : 3e5;
+    json rows = json::array();
+    for (const ZH& z : kZickHomsy)
+      for (double r : res) {
+        const double n = r * std::cbrt(3.14159265 / (6 * z.phi));
+        if (n * n * n > cap) {
+          rows.push_back({{"phi_target", z.phi}, {"voxels_per_d", r}, {"skipped", "cells > cap"}});
+          continue;
+        }
+        json row = runCell(z.phi, r, 2.0, flow::Precision::Float, 2, 1e-6);
+        std::fprintf(stderr, "phi %.4f d %.0f: k/d2 %.5f err %+.4f steps %lld wall %.1f\n", z.phi,
+                     r, row["k_over_d2"].get<double>(), row.value("rel_error", 0.0),
+                     static_cast<long long>(row["steps"].get<std::int64_t>()),
+                     row["wall_s"].get<double>());
+        rows.push_back(row);
+      }
+    out["rows"] = rows;
+    out["settings"] = "tau+ 2.0, Lambda 3/16, float32, tolerance 1e-6 per 100 steps, 2 threads";
+  } else if (mode == "speed") {
+    flow::LbmDomain d;
+    double dia = 0;
+    test::scUnitCell(0.2, 40.0, d, &dia);  // ~ 60^3 box, 0.8 fluid: arrays >> cache
+    json rows = json::array();
+    for (int th : {1, 2}) {
+      const double bw = copyBandwidth(std::size_t(1) << 25, th);
+      for (flow::Precision p : {flow::Precision::Float, flow::Precision::Double}) {
+        flow::LbmOptions o;
+        o.force = 1e-6;
+        o.tolerance = 1e-30;
+        o.maxSteps = 100;
+        o.precision = p;
+        o.threads = th;
+        const double c0 = cpuSeconds();
+        const flow::LbmResult r = flow::runLbm(d, o);
+        const double cpu = cpuSeconds() - c0;
+        const double pop = p == flow::Precision::Float ? 4 : 8;
+        // Per update: 19 populations read + 19 written (+19 write-allocate reads), 18
+        // 4-byte pull indices, 1 flag byte.
+        const double bytes = 19 * pop * 3 + 18 * 4 + 1;
+        const double bound = bw / bytes / 1e6;
+        rows.push_back({{"threads", th},
+                        {"precision", p == flow::Precision::Float ? "float32" : "float64"},
+                        {"cells", r.fluidCells},
+                        {"mlups", r.mlups},
+                        {"cpu_s", cpu},
+                        {"wall_s", r.wallS},
+                        {"copy_gb_s", bw / 1e9},
+                        {"bytes_per_update", bytes},
+                        {"bound_mlups", bound},
+                        {"fraction_of_bound", r.mlups / bound}});
+        std::fprintf(stderr, "threads %d %s: %.1f MLUPS, copy %.2f GB/s, bound %.1f (%.0f %%)\n",
+                     th, p == flow::Precision::Float ? "float" : "double", r.mlups, bw / 1e9, bound,
+                     100 * r.mlups / bound);
+      }
+    }
+    out["rows"] = rows;
+  } else if (mode == "tau") {
+    json rows = json::array();
+    for (double tau : {0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 5.0}) {
+      json row = runCell(0.216, 24.0, tau, flow::Precision::Float, 2, 1e-6);
+      std::fprintf(stderr, "tau %.2f: k/d2 %.5f steps %lld\n", tau, row["k_over_d2"].get<double>(),
+                   static_cast<long long>(row["steps"].get<std::int64_t>()));
+      rows.push_back(row);
+    }
+    out["rows"] = rows;
+  } else if (mode == "precision") {
+    json rows = json::array();
+    for (double phi : {0.125, 0.343})
+      for (double tol : {1e-6, 1e-8}) {
+        json f = runCell(phi, 24.0, 2.0, flow::Precision::Float, 2, tol);
+        json d = runCell(phi, 24.0, 2.0, flow::Precision::Double, 2, tol);
+        rows.push_back(
+            {{"phi", phi},
+             {"tolerance", tol},
+             {"float", f},
+             {"double", d},
+             {"k_float_over_double", f["k_over_d2"].get<double>() / d["k_over_d2"].get<double>()}});
+        std::fprintf(stderr, "phi %.3f tol %g: float/double %.8f\n", phi, tol,
+                     rows.back()["k_float_over_double"].get<double>());
+      }
+    out["rows"] = rows;
+  } else {
+    std::fprintf(stderr, "unknown mode %s\n", mode.c_str());
+    return 2;
+  }
+  out["load_end"] = load();
+  out["total_wall_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out["cpu_model"] = "see /proc/cpuinfo; 2 cores shared";
+  const std::string path = argc > 2 ? argv[2] : "";
+  if (!path.empty())
+    std::ofstream(path) << out.dump(2) << '\n';
+  else
+    std::printf("%s\n", out.dump(2).c_str());
+  return 0;
+}
