@@ -65,8 +65,7 @@ inline Moments moments(const double* f, const double* force) {
 // One fused stream (pull) + TRT collision step over cells [begin, end).
 template <class T>
 void stepRange(const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
-               std::size_t n, std::size_t begin, std::size_t end, const Rates& r, int axis,
-               BlockSums* sums) {
+               std::size_t begin, std::size_t end, const Rates& r, int axis, BlockSums* sums) {
   const double wp = r.omegaPlus, wm = r.omegaMinus;
   const double gp = 1.0 - 0.5 * wp, gm = 1.0 - 0.5 * wm;
   for (std::size_t c = begin; c < end; ++c) {
@@ -134,7 +133,7 @@ class Solver {
     for (std::int64_t bi = 0; bi < nb; ++bi) {
       const std::size_t begin = static_cast<std::size_t>(bi) * kBlock;
       const std::size_t end = std::min(n_, begin + kBlock);
-      stepRange(fin, fout, src_.data(), inSample_.data(), n_, begin, end, rates_, axis_,
+      stepRange(fin, fout, src_.data(), inSample_.data(), begin, end, rates_, axis_,
                 total ? &part[static_cast<std::size_t>(bi)] : nullptr);
     }
     a_.swap(b_);
