@@ -1,0 +1,143 @@
+#!/usr/bin/env python3
+"""Overhead of voxpack.stats from Python against `voxpack stats` on the same 256^3 bed.
+
+    PYTHONPATH=build/python /usr/bin/python3 bench/python/bench_stats_overhead.py \
+        --bin build/bin/voxpack [--size 256] [--repeats 3] [--threads 2] [--only ...]
+
+The bed is synthetic (random overlapping balls of radius 8 voxels in a cylinder mask, seed 1,
+0.2 mm voxels), written once with voxpack.write_bed. Each repeat runs, in alternating order:
+  cli    the binary: `voxpack --quiet --threads T stats bed.h5 -o out.json` (a new process:
+         start-up, HDF5 read + inflate, statistics, JSON write);
+  array  voxpack.stats(indicator_array, mask=..., threads=T) in this process (one copy of the
+         arrays into the C++ grids, statistics, JSON -> dict);
+  path   voxpack.stats("bed.h5", threads=T) (read_bed, copy, statistics, dict).
+Wall time (perf_counter) and CPU time (user+sys of the child / of this process) are
+recorded per run; the overhead is median(python) / median(cli) - 1. The results must be
+value for value equal (checked). Raw JSON to bench/results/python_overhead.json.
+"""
+
+import argparse
+import json
+import os
+import pathlib
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import voxpack
+
+
+def make_bed(n: int, seed: int = 1):
+    rng = np.random.default_rng(seed)
+    void = np.ones((n, n, n), dtype=bool)
+    r = 8
+    ball = np.add.outer(np.add.outer(np.arange(-r, r + 1) ** 2, np.arange(-r, r + 1) ** 2),
+                        np.arange(-r, r + 1) ** 2) <= r * r
+    count = int(0.55 * n ** 3 / ball.sum())  # ~ 0.4 solid after overlaps
+    for c in rng.integers(r, n - r, size=(count, 3)):
+        z, y, x = c
+        sub = void[z - r:z + r + 1, y - r:y + r + 1, x - r:x + r + 1]
+        sub &= ~ball
+    yy, xx = np.mgrid[0:n, 0:n]
+    disc = (yy - (n - 1) / 2) ** 2 + (xx - (n - 1) / 2) ** 2 <= (n / 2) ** 2
+    mask = np.broadcast_to(disc, (n, n, n)).astype(np.uint8)
+    return void, mask
+
+
+def cpu_self():
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
+
+
+def cpu_children():
+    u = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return u.ru_utime + u.ru_stime
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--bin", default="build/bin/voxpack")
+    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--only", default="", help="comma-separated statistics (default all)")
+    ap.add_argument("--out", default="bench/results/python_overhead.json")
+    a = ap.parse_args()
+
+    tmp = pathlib.Path(tempfile.mkdtemp(prefix="voxpack-bench-"))
+    void, mask = make_bed(a.size)
+    bed_file = tmp / "bed.h5"
+    voxpack.write_bed(bed_file, void, mask=mask, spacing_mm=0.2)
+    only = [s for s in a.only.split(",") if s] or None
+    flags = ["--only", a.only] if only else []
+    runs = {"cli": [], "array": [], "path": []}
+    load = {"before": os.getloadavg()}
+    results = {}
+
+    def run_cli():
+        c0, t0 = cpu_children(), time.perf_counter()
+        subprocess.run([a.bin, "--quiet", "--threads", str(a.threads), "stats", str(bed_file),
+                        "-o", str(tmp / "cli.json"), *flags], check=True)
+        return time.perf_counter() - t0, cpu_children() - c0
+
+    def run_py(what):
+        src = void if what == "array" else str(bed_file)
+        kw = dict(mask=mask, spacing_mm=0.2) if what == "array" else {}
+        c0, t0 = cpu_self(), time.perf_counter()
+        results[what] = voxpack.stats(src, only=only, threads=a.threads, **kw)
+        return time.perf_counter() - t0, cpu_self() - c0
+
+    for rep in range(a.repeats):
+        order = ["cli", "array", "path"] if rep % 2 == 0 else ["path", "array", "cli"]
+        for what in order:
+            wall, cpu = run_cli() if what == "cli" else run_py(what)
+            runs[what].append({"wall_s": wall, "cpu_s": cpu})
+            print(f"repeat {rep} {what:5s} wall {wall:7.2f} s  cpu {cpu:7.2f} s", flush=True)
+    load["after"] = os.getloadavg()
+
+    ref = json.loads((tmp / "cli.json").read_text())
+    drop = ("input", "command_line")
+    equal = {w: {k: v for k, v in results[w].items() if k not in drop}
+             == {k: v for k, v in ref.items() if k not in drop} for w in ("array", "path")}
+
+    def med(what, key):
+        return statistics.median(r[key] for r in runs[what])
+
+    summary = {
+        "what": "voxpack.stats from Python vs `voxpack stats` (new process) on the same bed",
+        "bed": {"dims": [a.size] * 3, "spacing_mm": 0.2, "seed": 1,
+                "structure": "random overlapping balls r=8 voxels, cylinder mask",
+                "file_bytes": bed_file.stat().st_size},
+        "statistics": only or "all",
+        "threads": a.threads,
+        "repeats": a.repeats,
+        "runs": runs,
+        "median_wall_s": {w: med(w, "wall_s") for w in runs},
+        "median_cpu_s": {w: med(w, "cpu_s") for w in runs},
+        "overhead_wall": {w: med(w, "wall_s") / med("cli", "wall_s") - 1 for w in ("array", "path")},
+        "overhead_cpu": {w: med(w, "cpu_s") / med("cli", "cpu_s") - 1 for w in ("array", "path")},
+        "results_equal_to_cli": equal,
+        "loadavg": load,
+        "cpu_count": os.cpu_count(),
+        "python": sys.version.split()[0],
+        "voxpack": voxpack.__version__,
+        "date_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+    out = pathlib.Path(a.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(summary, indent=2) + "\n")
+    print(json.dumps({k: summary[k] for k in ("median_wall_s", "median_cpu_s", "overhead_wall",
+                                              "overhead_cpu", "results_equal_to_cli", "loadavg")},
+                     indent=2))
+    for f in tmp.iterdir():
+        f.unlink()
+    tmp.rmdir()
+
+
+if __name__ == "__main__":
+    main()
