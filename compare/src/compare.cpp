@@ -137,6 +137,23 @@ Bed cropSlices(const Bed& bed, std::int64_t first, std::int64_t last) {
   return out;
 }
 
+nlohmann::json calibrationBand(const nlohmann::json& calibration, double densityMean) {
+  if (!calibration.is_object() || !std::isfinite(densityMean)) return nullptr;
+  const auto bias = calibration.find("density_bias");
+  if (bias == calibration.end() || !bias->is_number()) return nullptr;
+  const double b = bias->get<double>();
+  const auto sd = calibration.find("density_bias_std");
+  const double s = sd != calibration.end() && sd->is_number() ? sd->get<double>() : 0.0;
+  nlohmann::json j = calibration;
+  j["density_mean"] = densityMean;
+  j["density_corrected"] = densityMean - b;
+  j["density_band"] = {densityMean - b - s, densityMean - b + s};
+  j["note"] =
+      "bias = segmented - true density on phantoms of the reference bed; the band is "
+      "the reference's density minus the bias, +- one std";
+  return j;
+}
+
 std::vector<double> wallDistanceMm(const nlohmann::json& radial) {
   std::vector<double> w = numbers(radial, "wall_distance_mm");
   const std::vector<double> r = numbers(radial, "r_mm");
@@ -415,6 +432,9 @@ Comparison compareBedFiles(const std::filesystem::path& reference,
     e.path = p;
     e.spacingMm = bed.lattice().spacingMm;
     e.origin = classifyOrigin(bed.provenance, headerTextOfInputs(bed.provenance, p.parent_path()));
+    if (bed.provenance.is_object() && bed.provenance.contains("calibration") &&
+        bed.provenance["calibration"].is_object())
+      e.calibration = bed.provenance["calibration"];
     e.stats = stats::computeStats(bed, opt.stats, progress);
     e.shadow = shadowImage(bed);
     e.slice = voidSlice(bed);

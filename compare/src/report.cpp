@@ -335,6 +335,16 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
       << cell(c.reference.spacingMm[2], 4) << "</td><td>" << cell(m) << "</td><td>" << cell(s)
       << "</td><td>&mdash;</td><td>&mdash;</td><td>&mdash;</td><td>&mdash;</td><td>&mdash;</td>"
          "</tr>\n";
+    const nlohmann::json band = calibrationBand(c.reference.calibration, m);
+    if (band.is_object())
+      h << "<tr class=\"ref\"><td>" << htmlEscape(c.reference.name)
+        << " (calibrated)</td><td class=\"l\">ingest calibration, "
+        << htmlEscape(band.value("n", nlohmann::json(0)).dump()) << " phantoms</td><td></td><td>"
+        << cell(band["density_band"][0].get<double>()) << " &ndash; "
+        << cell(band["density_band"][1].get<double>())
+        << "</td><td></td><td colspan=\"5\" class=\"l\">true density band: mean minus the "
+           "expected segmentation bias "
+        << cell(band["density_bias"].get<double>()) << ", &plusmn; one std</td></tr>\n";
   }
   for (std::size_t n = 0; n < c.candidates.size(); ++n) {
     const auto& e = c.candidates[n];
@@ -466,6 +476,14 @@ nlohmann::json summaryJson(const Comparison& c, const nlohmann::json& extras) {
     ++n;
   }
   j["reference_stats"] = c.reference.stats;
+  {
+    const auto& ra =
+        c.reference.stats.contains("axial") ? c.reference.stats["axial"] : nlohmann::json();
+    const double m = ra.is_object() && ra.contains("mean") && ra["mean"].is_number()
+                         ? ra["mean"].get<double>()
+                         : std::nan("");
+    j["reference_calibration"] = calibrationBand(c.reference.calibration, m);
+  }
   j["candidate_stats"] = nlohmann::json::object();
   for (const auto& e : c.candidates) j["candidate_stats"][e.name] = e.stats;
   j["warnings"] = c.warnings;

@@ -126,7 +126,15 @@ struct BedEntry {
   Image2D slice;                      ///< Fig. 8
   std::array<double, 3> spacingMm{};  ///< voxel size (z, y, x)
   PackedRegion region;                ///< slices the statistics were computed on
+  /// The ingest calibration of the bed's provenance ("calibration": density_bias, ...),
+  /// or null when the bed has none.
+  nlohmann::json calibration = nullptr;
 };
+
+/// The band of the reference's true density implied by an ingest calibration: the mean
+/// slice density minus the expected bias (segmented - true), +- one bias std; null
+/// when `calibration` lacks density_bias or `densityMean` is not finite.
+nlohmann::json calibrationBand(const nlohmann::json& calibration, double densityMean);
 
 /// Result of compareBedFiles.
 struct Comparison {
