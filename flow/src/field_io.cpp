@@ -43,13 +43,19 @@ void writeFlowField(const std::filesystem::path& path, const Bed& bed, const Flo
                                                                   : 2;
   const double force = rep.json["lattice"].value("force", 0.0);
   const std::int64_t len = sd[static_cast<std::size_t>(a)];
+  std::int64_t trimLo = 0, trimHi = 0;
+  if (rep.json.contains("trimmed_layers") && rep.json["trimmed_layers"].is_array()) {
+    trimLo = rep.json["trimmed_layers"][0].get<std::int64_t>();
+    trimHi = rep.json["trimmed_layers"][1].get<std::int64_t>();
+  }
   for (std::size_t c = 0; c < r.fluidCells; ++c) {
     const std::uint64_t off = r.cellOffset[c];
     std::int64_t p[3] = {static_cast<std::int64_t>(off) / (dd[1] * dd[2]),
                          (static_cast<std::int64_t>(off) / dd[2]) % dd[1],
                          static_cast<std::int64_t>(off) % dd[2]};
     p[a] -= rep.sampleStart;
-    if (p[a] < 0 || p[a] >= len) continue;
+    if (p[a] < 0 || p[a] >= len - trimLo - trimHi) continue;
+    if (a == 0) p[0] += trimLo;  // computeFlow dropped end layers outside the mask
     const std::size_t so = lat.offset(p[0], p[1], p[2]);
     // (x, y, z) components for ParaView; the lattice stores (z, y, x).
     for (int d = 0; d < 3; ++d)

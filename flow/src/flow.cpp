@@ -168,10 +168,33 @@ double sphereDiameterFromTable(const Bed& bed) {
 
 }  // namespace
 
-FlowReport computeFlow(const Bed& bed, const FlowOptions& o, const MemoryBudget& budget,
+FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudget& budget,
                        Progress& progress) {
   const auto tStart = std::chrono::steady_clock::now();
-  bed.validate();
+  bedIn.validate();
+  // A packed column's end layers lie outside the mask (the container's floor and lid):
+  // along z they are dropped, so the sample starts and ends with fluid-bearing layers.
+  Bed trimmed;
+  std::int64_t trimLo = 0, trimHi = 0;
+  if (o.axis == 0 && bedIn.mask) {
+    const Lattice& l = bedIn.lattice();
+    const std::size_t plane = static_cast<std::size_t>(l.ny() * l.nx());
+    auto layerInMask = [&](std::int64_t k) {
+      const std::uint8_t* m = bedIn.mask->data() + static_cast<std::size_t>(k) * plane;
+      return std::any_of(m, m + plane, [](std::uint8_t v) { return v != 0; });
+    };
+    std::int64_t k0 = 0, k1 = l.nz() - 1;
+    while (k0 <= k1 && !layerInMask(k0)) ++k0;
+    while (k1 >= k0 && !layerInMask(k1)) --k1;
+    if (k0 <= k1 && (k0 > 0 || k1 < l.nz() - 1)) {
+      const double z0 = l.originMm[0] + static_cast<double>(k0) * l.spacingMm[0];
+      const double z1 = l.originMm[0] + static_cast<double>(k1) * l.spacingMm[0];
+      trimmed = cropBedZ(bedIn, z0 - 1e-6 * l.spacingMm[0], z1 + 1e-6 * l.spacingMm[0]);
+      trimLo = k0;
+      trimHi = l.nz() - 1 - k1;
+    }
+  }
+  const Bed& bed = trimLo + trimHi > 0 ? trimmed : bedIn;
   const Lattice& lat = bed.lattice();
   if (!lat.isIsotropic())
     throw InputError("flow: the lattice Boltzmann solver needs isotropic voxels (spacing " +
@@ -212,6 +235,7 @@ FlowReport computeFlow(const Bed& bed, const FlowOptions& o, const MemoryBudget&
                               : nlohmann::json(nullptr);
   j["voxel_mm"] = h;
   j["dims"] = lat.dims;
+  j["trimmed_layers"] = {trimLo, trimHi};  // end layers outside the mask, dropped
   j["porosity"] = eps;
   j["specific_surface_mm_inv"] = finiteOrNull(sv);
   j["specific_surface_method"] = "13-direction crossing counts (Cauchy-Crofton)";
@@ -219,6 +243,23 @@ FlowReport computeFlow(const Bed& bed, const FlowOptions& o, const MemoryBudget&
   j["particle_diameter_source"] = dSource;
   j["column_diameter_mm"] = col.present ? nlohmann::json(columnMm) : nlohmann::json(nullptr);
 
+  // Memory before anything is allocated: the dense lattice flags (2 bytes a cell of the
+  // padded box) plus the solver's own estimate (reservoir layers counted as all fluid).
+  {
+    const std::uint64_t len =
+        static_cast<std::uint64_t>(lat.dims[static_cast<std::size_t>(o.axis)]);
+    const std::uint64_t cross = lat.size() / len;
+    std::uint64_t along = len, fluid = summary.voidVoxels;
+    if (!o.periodic && o.inflow == Inflow::Mirror) along = 2 * len, fluid *= 2;
+    if (!o.periodic && o.inflow == Inflow::Reservoirs) {
+      const std::uint64_t extra = 2 * static_cast<std::uint64_t>(o.reservoirLayers);
+      along = len + extra;
+      fluid += extra * cross;
+    }
+    const std::uint64_t box = checkedProduct({cross, along}, "flow lattice");
+    requireWithinBudget(2 * box + estimateLbmBytes(box, fluid, o.lbm.precision), budget,
+                        "flow (lattice Boltzmann)");
+  }
   // Blocked: no path across the sample, reported at once (nothing to run).
   if (!percolates(sampleDomain(bed, o), o.axis)) {
     j["status"] = statusName(FlowStatus::Blocked);
@@ -239,23 +280,6 @@ FlowReport computeFlow(const Bed& bed, const FlowOptions& o, const MemoryBudget&
     return rep;
   }
 
-  // Memory before anything is allocated: the dense lattice flags (2 bytes a cell of the
-  // padded box) plus the solver's own estimate (reservoir layers counted as all fluid).
-  {
-    const std::uint64_t len =
-        static_cast<std::uint64_t>(lat.dims[static_cast<std::size_t>(o.axis)]);
-    const std::uint64_t cross = lat.size() / len;
-    std::uint64_t along = len, fluid = summary.voidVoxels;
-    if (!o.periodic && o.inflow == Inflow::Mirror) along = 2 * len, fluid *= 2;
-    if (!o.periodic && o.inflow == Inflow::Reservoirs) {
-      const std::uint64_t extra = 2 * static_cast<std::uint64_t>(o.reservoirLayers);
-      along = len + extra;
-      fluid += extra * cross;
-    }
-    const std::uint64_t box = checkedProduct({cross, along}, "flow lattice");
-    requireWithinBudget(2 * box + estimateLbmBytes(box, fluid, o.lbm.precision), budget,
-                        "flow (lattice Boltzmann)");
-  }
   Built built = buildDomain(bed, o);
   LbmOptions lo = o.lbm;
   lo.axis = o.axis;

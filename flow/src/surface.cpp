@@ -101,6 +101,7 @@ Bed cropBedZ(const Bed& bed, double z0, double z1) {
     c.mask = Grid<std::uint8_t>(out);
     std::copy_n(bed.mask->data() + first, count, c.mask->data());
   }
+  c.particles = bed.particles;  // kept for the particle diameter (spheres' d)
   c.provenance = bed.provenance;
   return c;
 }
