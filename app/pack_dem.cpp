@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <numbers>
 #include <sstream>
 
 #include "pack_modes.hpp"
@@ -21,58 +22,82 @@ namespace {
 
 using packer::dem::DemOptions;
 
-// One numeric DEM option: its flag, its [dem] key and where it lands in DemOptions.
+// One numeric DEM option: its flag, its [dem] key, where it lands in DemOptions and the
+// values it accepts (checked here, so the refusal names the flag or the key as written).
 struct DemKey {
   const char* flag;
   const char* key;
   const char* help;
   double DemOptions::*real = nullptr;
   int DemOptions::*integer = nullptr;
+  bool (*ok)(double) = nullptr;
+  const char* range = "";
 };
+
+bool nonNegative(double v) { return v >= 0; }
+bool positive(double v) { return v > 0; }
+bool unit(double v) { return v >= 0 && v <= 1; }
+bool openUnit(double v) { return v > 0 && v <= 1; }
 
 const std::vector<DemKey>& demKeys() {
   using O = DemOptions;
   static const std::vector<DemKey> keys{
       {"--friction", "friction", "DEM: Coulomb friction coefficient mu >= 0 (default 0.5)",
-       &O::friction},
+       &O::friction, nullptr, nonNegative, ">= 0"},
       {"--restitution", "restitution", "DEM: normal restitution coefficient 0..1 (default 0.5)",
-       &O::restitution},
+       &O::restitution, nullptr, unit, "in 0..1"},
       {"--tap-cycles", "tap_cycles", "DEM: taps after the pour settled, 0 = none (default 0)",
-       nullptr, &O::tapCycles},
+       nullptr, &O::tapCycles, nonNegative, ">= 0"},
       {"--density", "density_g_cm3", "DEM: particle material density, g/cm^3 (default 1.5)",
-       &O::densityGPerCm3},
+       &O::densityGPerCm3, nullptr, positive, "> 0"},
       {"--stiffness", "stiffness_n_mm3",
        "DEM: face stiffness per area and depth, N/mm^3; 0 = auto from --target-overlap",
-       &O::stiffnessNPerMm3},
+       &O::stiffnessNPerMm3, nullptr, nonNegative, ">= 0 (0 = auto)"},
       {"--contact-stiffness-cap", "contact_stiffness_cap",
        "DEM: ceiling of one contact's stiffness, in curved-contact units; 0 = none (default 1)",
-       &O::contactStiffnessCap},
+       &O::contactStiffnessCap, nullptr, nonNegative, ">= 0 (0 = none)"},
       {"--target-overlap", "target_overlap",
-       "DEM: auto stiffness: overlap / d under the bed weight (default 0.004)", &O::targetOverlap},
+       "DEM: auto stiffness: overlap / d under the bed weight (default 0.004)", &O::targetOverlap,
+       nullptr, [](double v) { return v > 0 && v < 0.2; }, "in (0, 0.2)"},
       {"--time-step", "time_step_s",
-       "DEM: time step in s; 0 = auto; above t_c/10 it is clamped with a warning", &O::timeStepS},
+       "DEM: time step in s; 0 = auto; above t_c/10 it is clamped with a warning", &O::timeStepS,
+       nullptr, nonNegative, ">= 0 (0 = auto)"},
       {"--time-step-fraction", "time_step_fraction",
        "DEM: auto time step as a fraction of the contact time t_c, (0, 0.1] (default 1/20)",
-       &O::timeStepFraction},
+       &O::timeStepFraction, nullptr, [](double v) { return v > 0 && v <= 0.1; }, "in (0, 0.1]"},
       {"--tap-amplitude", "tap_amplitude_mm", "DEM: container lift per tap, mm; 0 = 0.3 d",
-       &O::tapAmplitudeMm},
+       &O::tapAmplitudeMm, nullptr, nonNegative, ">= 0 (0 = 0.3 d)"},
       {"--tap-frequency", "tap_frequency_hz",
-       "DEM: a tap is one sine period of this frequency, Hz (default 30)", &O::tapFrequencyHz},
-      {"--tap-rest", "tap_rest_s", "DEM: relaxation after each tap, s (default 0.1)", &O::tapRestS},
+       "DEM: a tap is one sine period of this frequency, Hz (default 30)", &O::tapFrequencyHz,
+       nullptr, positive, "> 0"},
+      {"--tap-rest", "tap_rest_s", "DEM: relaxation after each tap, s (default 0.1)", &O::tapRestS,
+       nullptr, nonNegative, ">= 0"},
       {"--sleep-time", "sleep_time_s",
-       "DEM: time at rest before a particle sleeps, s (default 0.01)", &O::sleepTimeS},
+       "DEM: time at rest before a particle sleeps, s (default 0.01)", &O::sleepTimeS, nullptr,
+       nonNegative, ">= 0"},
       {"--settle-kinetic", "settle_kinetic",
-       "DEM: settled when mean kinetic energy < this * m g d (default 1e-6)", &O::settleKinetic},
+       "DEM: settled when mean kinetic energy < this * m g d (default 1e-6)", &O::settleKinetic,
+       nullptr, positive, "> 0"},
       {"--settle-velocity", "settle_velocity",
-       "DEM: ...and max |v| < this * sqrt(g d) (default 1e-3)", &O::settleVelocity},
-      {"--max-time", "max_time_s", "DEM: cap on simulated time, s (default 20)", &O::maxTimeS},
+       "DEM: ...and max |v| < this * sqrt(g d) (default 1e-3)", &O::settleVelocity, nullptr,
+       positive, "> 0"},
+      {"--max-time", "max_time_s", "DEM: cap on simulated time, s (default 20)", &O::maxTimeS,
+       nullptr, positive, "> 0"},
       {"--rain-height", "rain_height_d",
-       "DEM: height of the injection zone above the bed, in d (default 4)",
-       &O::rainHeightDiameters},
+       "DEM: height of the injection zone above the bed, in d (default 4)", &O::rainHeightDiameters,
+       nullptr, positive, "> 0"},
       {"--rain-fraction", "rain_volume_fraction",
-       "DEM: solid fraction of one injection batch (default 0.3)", &O::rainVolumeFraction},
+       "DEM: solid fraction of one injection batch (default 0.3)", &O::rainVolumeFraction, nullptr,
+       openUnit, "in (0, 1]"},
+      {"--wall-friction", "wall_friction",
+       "DEM: particle-wall Coulomb coefficient; -1 = --friction (default)", &O::wallFriction,
+       nullptr, [](double v) { return v >= 0 || v == -1; }, ">= 0, or -1 = --friction"},
+      {"--wall-restitution", "wall_restitution",
+       "DEM: particle-wall restitution 0..1; -1 = --restitution (default)", &O::wallRestitution,
+       nullptr, [](double v) { return (v >= 0 && v <= 1) || v == -1; },
+       "in 0..1, or -1 = --restitution"},
       {"--rain-speed", "rain_speed_mm_s", "DEM: initial downward speed, mm/s (default 0)",
-       &O::rainSpeedMmPerS},
+       &O::rainSpeedMmPerS, nullptr, nonNegative, ">= 0"},
   };
   return keys;
 }
@@ -162,8 +187,12 @@ class DemMode final : public PackMode {
 
     CommandProgress progress(global);
     const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress);
+    double clippedMm3 = 0;
     Bed bed = packer::dem::demBed(r.particles, shapes, *container, scene.voxelSizeMm,
-                                  scene.supersample, o.threads, progress);
+                                  scene.supersample, o.threads, progress, &clippedMm3);
+    double dRef = 1e300;
+    for (const auto& sh : shapes)
+      dRef = std::min(dRef, std::cbrt(6 * sh->volumeMm3() / std::numbers::pi));
 
     nlohmann::json prov = scene.provenance;
     nlohmann::json dem = {
@@ -195,6 +224,12 @@ class DemMode final : public PackMode {
         {"simulated_time_s", r.simulatedTimeS},
         {"settle_time_s", r.settleTimeS},
         {"max_overlap_mm", r.maxOverlapMm},
+        {"max_overlap_d", r.maxOverlapMm / dRef},
+        {"mean_overlap_d", r.meanOverlapMm / dRef},
+        {"contacts", r.contacts},
+        {"clipped_outside_mask_mm3", clippedMm3},
+        {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
+        {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},
         {"dem_wall_time_s", r.wallTimeS},
         {"threads", o.threads},
         {"steps", r.counters.steps},
@@ -229,6 +264,11 @@ class DemMode final : public PackMode {
  private:
   static void set(DemOptions& o, const DemKey& key, double v, const std::string& where) {
     if (!std::isfinite(v)) throw InputError(where + " must be a finite number");
+    if (key.ok && !key.ok(v)) {
+      std::ostringstream m;
+      m << where << " must be " << key.range << " (got " << v << ")";
+      throw InputError(m.str());
+    }
     if (key.real) {
       o.*key.real = v;
       return;

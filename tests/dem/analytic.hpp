@@ -33,6 +33,28 @@ class TestSphere final : public DemShape {
   double r_;
 };
 
+/// Sphere of diameter d that declares its closed form (the DEM's fast sphere path).
+class TestFastSphere final : public DemShape {
+ public:
+  explicit TestFastSphere(double d) : s_(d), r_(0.5 * d) {}
+  std::string spec() const override { return s_.spec(); }
+  double volumeMm3() const override { return s_.volumeMm3(); }
+  Eigen::Matrix3d inertiaPerDensity() const override { return s_.inertiaPerDensity(); }
+  double boundingRadiusMm() const override { return r_; }
+  bool inside(const Vec3& p) const override { return s_.inside(p); }
+  double signedDistanceMm(const Vec3& p) const override { return s_.signedDistanceMm(p); }
+  Vec3 normal(const Vec3& p) const override { return s_.normal(p); }
+  int analyticForm(double& r, double& hl) const override {
+    r = r_;
+    hl = 0;
+    return 1;
+  }
+
+ private:
+  TestSphere s_;
+  double r_;
+};
+
 /// Solid cylinder of diameter d and length l, axis z.
 class TestCylinder final : public DemShape {
  public:
@@ -81,11 +103,37 @@ class TestColumn final : public DemContainer {
     if (p.z() < r_ - rho) return Vec3(0, 0, 1);
     return rho > 0 ? Vec3(-p.x() / rho, -p.y() / rho, 0) : Vec3(0, 0, 1);
   }
+  // Two contact regions: the floor (5) and the round side (0).
+  int wallRegion(const Vec3& p) const override {
+    return p.z() < r_ - std::hypot(p.x(), p.y()) ? 5 : 0;
+  }
+  int nearWalls(const Vec3& p, double reach, packer::dem::WallPatch* out) const override {
+    int n = 0;
+    if (p.z() < reach) out[n++] = {p.z(), Vec3(0, 0, 1), 5};
+    const double rho = std::hypot(p.x(), p.y());
+    if (rho > 0 && r_ - rho < reach) out[n++] = {r_ - rho, Vec3(-p.x() / rho, -p.y() / rho, 0), 0};
+    return n;
+  }
   Vec3 minMm() const override { return Vec3(-r_, -r_, 0); }
   Vec3 maxMm() const override { return Vec3(r_, r_, h_); }
 
  private:
   double r_, h_;
+};
+
+/// A floor tilted by `angle` (rad) about the x axis: the half-space above the plane through
+/// the origin with normal (0, -sin a, cos a).
+class TestIncline final : public DemContainer {
+ public:
+  explicit TestIncline(double angle) : n_(0, -std::sin(angle), std::cos(angle)) {}
+  double wallDistanceMm(const Vec3& p) const override { return p.dot(n_); }
+  Vec3 inwardNormal(const Vec3&) const override { return n_; }
+  int wallRegion(const Vec3&) const override { return 5; }
+  Vec3 minMm() const override { return Vec3(-500, -500, -500); }
+  Vec3 maxMm() const override { return Vec3(500, 500, 500); }
+
+ private:
+  Vec3 n_;
 };
 
 /// Open-top box [-a/2, a/2]^2 x [0, h].

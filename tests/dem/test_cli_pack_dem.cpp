@@ -91,5 +91,59 @@ TEST(CliPackDem, BadValuesExitTwoWithOneErrorLine) {
   }
 }
 
+// Invalid [dem] values are refused before any work, naming the key as written.
+TEST(CliPackDem, InvalidDemTomlValuesExitTwoNamingTheKey) {
+  for (const auto& [key, value] :
+       std::vector<std::pair<std::string, std::string>>{{"settle_velocity", "-1"},
+                                                        {"settle_kinetic", "0"},
+                                                        {"max_time_s", "-3"},
+                                                        {"rain_volume_fraction", "1.5"},
+                                                        {"time_step_fraction", "0.5"},
+                                                        {"wall_restitution", "2"}}) {
+    TempDir tmp;
+    {
+      std::ofstream f(tmp / "scene.toml");
+      f << "[dem]\n" << key << " = " << value << "\n";
+    }
+    auto args = baseArgs(tmp);
+    args.push_back("--config");
+    args.push_back((tmp / "scene.toml").string());
+    const CliResult r = runVoxpack(args);
+    EXPECT_EQ(r.exitCode, 2) << key << ": " << r.err;
+    EXPECT_EQ(countErrorLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(key), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(tmp / "bed.h5"));
+  }
+  TempDir tmp;
+  auto args = baseArgs(tmp);
+  args.push_back("--settle-velocity");
+  args.push_back("-1");
+  const CliResult r = runVoxpack(args);
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+  EXPECT_NE(r.err.find("--settle-velocity"), std::string::npos) << r.err;
+}
+
+// Soft contacts press particles into the wall; the bed still holds no solid outside its
+// mask, and the clipped volume is reported.
+TEST(CliPackDem, NoSolidOutsideTheMask) {
+  TempDir tmp;
+  auto args = baseArgs(tmp);
+  for (std::size_t a = 0; a + 1 < args.size(); ++a)
+    if (args[a] == "--voxel-size") args[a + 1] = "0.25";
+  for (const char* a : {"--target-overlap", "0.1"}) args.push_back(a);
+  const CliResult r = runVoxpack(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const Bed bed = readBed(tmp / "bed.h5");
+  ASSERT_TRUE(bed.mask.has_value());
+  std::size_t outside = 0;
+  for (std::size_t o = 0; o < bed.indicator.size(); ++o)
+    if ((*bed.mask)[o] == 0 && (bed.indicator[o] == 0 || (*bed.labels)[o] != 0)) ++outside;
+  EXPECT_EQ(outside, 0u);
+  const auto& dem = bed.provenance.at("dem");
+  EXPECT_GE(dem.at("clipped_outside_mask_mm3").get<double>(), 0.0);
+  EXPECT_GE(dem.at("mean_overlap_d").get<double>(), 0.0);
+  EXPECT_GE(dem.at("max_overlap_d").get<double>(), dem.at("mean_overlap_d").get<double>());
+}
+
 }  // namespace
 }  // namespace voxpack::test

@@ -70,6 +70,7 @@ class OpenTopContainer final : public DemContainer {
       : c_(std::move(c)), b_(c_->boundsMm()) {
     zClamp_ = b_.max.z() - std::max(margin, 1e-6);
     cylinder_ = c_->cylinderAxis(cx_, cy_, r_);
+    box_ = parseSpec(c_->spec(), "container").name == "box";  // axis-aligned faces
   }
   double wallDistanceMm(const Vec3& p) const override {
     if (cylinder_)
@@ -85,6 +86,32 @@ class OpenTopContainer final : public DemContainer {
     }
     return c_->inwardNormal(clamp(p));
   }
+  // Regions: a cylinder's floor (5, the +z class) and its round side (0); a box's faces by
+  // their normals (the default classes); other containers by the default.
+  int wallRegion(const Vec3& p) const override {
+    if (!cylinder_) return DemContainer::wallRegion(p);
+    const double rho = std::sqrt((p.x() - cx_) * (p.x() - cx_) + (p.y() - cy_) * (p.y() - cy_));
+    return p.z() - b_.min.z() < r_ - rho ? 5 : 0;
+  }
+  int nearWalls(const Vec3& p, double reachMm, WallPatch* out) const override {
+    int n = 0;
+    auto add = [&](double d, const Vec3& nrm, int region) {
+      if (d < reachMm) out[n++] = WallPatch{d, nrm, region};
+    };
+    if (cylinder_) {
+      const double dx = p.x() - cx_, dy = p.y() - cy_, rho = std::sqrt(dx * dx + dy * dy);
+      add(p.z() - b_.min.z(), Vec3(0, 0, 1), 5);
+      if (rho > 0) add(r_ - rho, Vec3(-dx / rho, -dy / rho, 0), 0);
+      return n;
+    }
+    if (!box_) return DemContainer::nearWalls(p, reachMm, out);
+    add(p.x() - b_.min.x(), Vec3(1, 0, 0), 1);
+    add(b_.max.x() - p.x(), Vec3(-1, 0, 0), 0);
+    add(p.y() - b_.min.y(), Vec3(0, 1, 0), 3);
+    add(b_.max.y() - p.y(), Vec3(0, -1, 0), 2);
+    add(p.z() - b_.min.z(), Vec3(0, 0, 1), 5);
+    return n;
+  }
   Vec3 minMm() const override { return b_.min; }
   Vec3 maxMm() const override { return b_.max; }
 
@@ -94,6 +121,7 @@ class OpenTopContainer final : public DemContainer {
   BoundsMm b_;
   double zClamp_ = 0;
   bool cylinder_ = false;
+  bool box_ = false;
   double cx_ = 0, cy_ = 0, r_ = 0;
 };
 
@@ -118,7 +146,7 @@ std::shared_ptr<const DemContainer> demContainer(std::shared_ptr<const Container
 
 Bed demBed(const ParticleTable& particles, const std::vector<std::shared_ptr<const Shape>>& shapes,
            const Container& container, double voxelMm, int supersample, int threads,
-           Progress& progress) {
+           Progress& progress, double* clippedMm3) {
   std::map<std::string, const Shape*> bySpec;
   for (const auto& s : shapes) bySpec[s->spec()] = s.get();
   Lattice lattice = latticeForContainer(container, voxelMm, 1);
@@ -159,6 +187,15 @@ Bed demBed(const ParticleTable& particles, const std::vector<std::shared_ptr<con
     }
     progress.report("dem: digitising", static_cast<double>(last) / static_cast<double>(n));
   }
+  // A bed never holds solid outside its container: the soft wall lets a particle overlap
+  // the wall by ~its contact overlap, and those voxels are clipped (and counted).
+  std::uint64_t clipped = 0;
+  for (std::size_t o = 0; o < lattice.size(); ++o)
+    if ((*bed.labels)[o] != 0 && (*bed.mask)[o] == 0) {
+      (*bed.labels)[o] = 0;
+      ++clipped;
+    }
+  if (clippedMm3) *clippedMm3 = static_cast<double>(clipped) * voxelMm * voxelMm * voxelMm;
   bed.indicator = Grid<std::uint8_t>(lattice, 1);
   for (std::size_t o = 0; o < lattice.size(); ++o) bed.indicator[o] = (*bed.labels)[o] == 0 ? 1 : 0;
   bed.particles = particles;

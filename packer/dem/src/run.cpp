@@ -4,14 +4,13 @@
 #include <cmath>
 #include <sstream>
 
+#include "constants.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/random.hpp"
 #include "voxpack/packer/dem.hpp"
 
 namespace voxpack::packer::dem {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Interior area of the container's horizontal cross-section at mid-height (mm^2), by
 // sampling on a 96 x 96 grid over the bounds.
@@ -34,6 +33,23 @@ Quat randomRotation(RandomStream& rs) {
   const double u1 = rs.uniform(), u2 = 2 * kPi * rs.uniform(), u3 = 2 * kPi * rs.uniform();
   const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
   return Quat(a * std::sin(u2), a * std::cos(u2), b * std::sin(u3), b * std::cos(u3)).normalized();
+}
+
+// The state at the last check that was finite: what a run that blows up returns.
+struct GoodState {
+  std::vector<Vec3> x;
+  std::vector<Quat> q;
+  double timeS = 0;
+};
+
+void keepGoodState(const DemSystem& sys, GoodState& g) {
+  g.x.resize(sys.size());
+  g.q.resize(sys.size());
+  for (std::size_t i = 0; i < sys.size(); ++i) {
+    g.x[i] = sys.position(i);
+    g.q[i] = sys.orientation(i);
+  }
+  g.timeS = sys.timeS();
 }
 
 }  // namespace
@@ -103,6 +119,7 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   double lastInsertS = 0;
   const double batchIntervalS = g > 0 ? std::sqrt(2 * zoneHeight / g) : 0.05;
   bool tapped = false;
+  GoodState lastGood;
   DemStatus status = DemStatus::kTimeCap;
   double nextStatus = 0.25;
   while (true) {
@@ -152,6 +169,11 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     }
     sys.step(checkSteps);
     const double t = sys.timeS();
+    if (sys.diverged()) {
+      status = DemStatus::kDiverged;
+      break;
+    }
+    keepGoodState(sys, lastGood);
     if (progress.cancelled()) {
       status = DemStatus::kCancelled;
       break;
@@ -196,18 +218,32 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   }
 
   result.status = status;
-  for (std::size_t i = 0; i < sys.size(); ++i) {
-    const Vec3 p = sys.position(i);
+  if (status == DemStatus::kDiverged) {
+    std::ostringstream m;
+    m << "dem: the run blew up at t " << sys.timeS()
+      << " s (non-finite or runaway state); the bed is the last good state, t " << lastGood.timeS
+      << " s; try a smaller --time-step-fraction or a softer --stiffness";
+    result.messages.push_back(m.str());
+    progress.message("warning: " + m.str());
+  }
+  const std::size_t kept = status == DemStatus::kDiverged ? lastGood.x.size() : sys.size();
+  for (std::size_t i = 0; i < kept; ++i) {
+    const bool good = status == DemStatus::kDiverged;
+    const Vec3 p = good ? lastGood.x[i] : sys.position(i);
+    const Quat q = good ? lastGood.q[i] : sys.orientation(i);
     if (scene.fillHeightMm > 0 && p.z() > lo.z() + scene.fillHeightMm) continue;
     result.particles.positionMm.push_back(p);
-    result.particles.orientation.push_back(sys.orientation(i));
+    result.particles.orientation.push_back(q);
     result.particles.shape.push_back(templates[sys.templateOf(i)].shape->spec());
   }
   result.timeStepS = dt;
   result.contactTimeS = sys.contactTimeS();
   result.stiffnessNPerMm3 = sys.stiffnessNPerMm3();
   result.simulatedTimeS = sys.timeS();
+  sys.measureAllContacts();
   result.maxOverlapMm = sys.maxOverlapMm();
+  result.meanOverlapMm = sys.meanOverlapMm();
+  result.contacts = sys.contactCount();
   result.counters = sys.counters();
   result.wallTimeS =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
@@ -221,7 +257,8 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
                                 static_cast<double>(c.particleSteps)
                           : 0.0)
       << " %), narrow phase on " << c.pairEvaluations << " of " << c.pairChecks
-      << " pair-steps; max overlap " << result.maxOverlapMm << " mm";
+      << " pair-steps; overlap mean " << result.meanOverlapMm / dMax << " d, max "
+      << result.maxOverlapMm / dMax << " d over " << result.contacts << " contacts";
     result.messages.push_back(m.str());
     progress.message(m.str());
   }

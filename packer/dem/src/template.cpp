@@ -4,13 +4,12 @@
 #include <cmath>
 #include <numeric>
 
+#include "constants.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/packer/dem.hpp"
 
 namespace voxpack::packer::dem {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // Principal frame of the inertia tensor. A tensor that is already diagonal keeps the shape
 // frame so that its voxel faces stay along the shape's natural axes (a degenerate solver

@@ -56,6 +56,13 @@ inline double analyticSignedDistanceMm(int form, double r, double hl, const Vec3
   return std::sqrt(ox * ox + oz * oz) + std::min(std::max(dr, dz), 0.0);
 }
 
+/// One wall near a point: its distance, its inward normal and its contact region.
+struct WallPatch {
+  double distanceMm = 0;        ///< > 0 inside
+  Vec3 normal = Vec3::UnitZ();  ///< inward unit normal
+  int region = 0;               ///< 0..5, see DemContainer::wallRegion
+};
+
 /// The container as the DEM sees it: an open-top vessel (walls extend upwards).
 class DemContainer {
  public:
@@ -64,6 +71,23 @@ class DemContainer {
   virtual double wallDistanceMm(const Vec3& p) const = 0;
   /// Inward unit normal of the nearest wall.
   virtual Vec3 inwardNormal(const Vec3& p) const = 0;
+  /// Contact region (0..5) of the wall nearest to p: one wall contact per region, and its
+  /// friction history stays while a particle moves along the region (a round side wall is
+  /// one region). Default: the main axis and sign of the inward normal (a box's faces).
+  virtual int wallRegion(const Vec3& p) const {
+    const Vec3 nw = inwardNormal(p);
+    int axis = 0;
+    nw.cwiseAbs().maxCoeff(&axis);
+    return 2 * axis + (nw[axis] > 0 ? 1 : 0);
+  }
+  /// The walls within reachMm of p, at most one per region, into out[0..5]; returns how
+  /// many. Default: the nearest wall only.
+  virtual int nearWalls(const Vec3& p, double reachMm, WallPatch* out) const {
+    const double d = wallDistanceMm(p);
+    if (d >= reachMm) return 0;
+    out[0] = WallPatch{d, inwardNormal(p), wallRegion(p)};
+    return 1;
+  }
   /// Lower corner (x, y, z) of the interior bounds (mm).
   virtual Vec3 minMm() const = 0;
   /// Upper corner (x, y, z) of the interior bounds (mm); z = nominal top.
@@ -94,8 +118,10 @@ struct DemOptions {
   ContactModel contact = ContactModel::kLevelSet;  ///< direction of node forces
   double gravityMmPerS2 = 9810.0;                  ///< gravity magnitude, acting along -z
   double tangentialStiffnessRatio = 2.0 / 7.0;     ///< k_t / k_n (elastic spheres)
-  int tapCycles = 0;                               ///< taps after the pour settled (0 = none)
-  double tapAmplitudeMm = 0;                       ///< container lift per tap; 0 = 0.3 d
+  double wallFriction = -1;         ///< particle-wall Coulomb coefficient; -1 = friction
+  double wallRestitution = -1;      ///< particle-wall restitution; -1 = restitution
+  int tapCycles = 0;                ///< taps after the pour settled (0 = none)
+  double tapAmplitudeMm = 0;        ///< container lift per tap; 0 = 0.3 d
   double tapFrequencyHz = 30;       ///< one tap = one sine period of the container lift
   double tapRestS = 0.1;            ///< free relaxation after each tap (s)
   bool sleeping = true;             ///< particles at rest away from motion are frozen
@@ -115,10 +141,10 @@ struct DemOptions {
   /// Fewest neighbour pairs (particles / 4) worth a parallel region; tuning only.
   std::int64_t parallelMinItems = 64;
   /// Fewest pairs x surface nodes per particle worth a parallel region (the work of one
-  /// force evaluation); tuning only. Measured: 98 cylinders at 0.9 mm (~500 pairs x ~150
-  /// nodes) ran 3x slower on 2 threads than on 1, the paper's bed at 0.27 mm (1894 nodes)
-  /// 1.8x faster.
-  double parallelMinNodeWork = 4e5;
+  /// force evaluation; a closed-form sphere counts 64 nodes, so does integrating one
+  /// particle); tuning only. Measured: 98 cylinders at 0.9 mm (~500 pairs x ~150 nodes) ran
+  /// 3x slower on 2 threads than on 1, the paper's bed at 0.27 mm (1894 nodes) 1.8x faster.
+  double parallelMinNodeWork = 1e5;
 };
 
 /// Precomputed body-frame (principal axes) data of one particle shape at one voxel size.
@@ -157,8 +183,8 @@ ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double vox
                                double densityGPerCm3);
 
 /// How a run ended.
-enum class DemStatus { kSettled, kTimeCap, kCancelled };
-/// "settled", "time_cap", "cancelled".
+enum class DemStatus { kSettled, kTimeCap, kCancelled, kDiverged };
+/// "settled", "time_cap", "cancelled", "diverged".
 const char* statusName(DemStatus s);
 
 /// Work counters of a run (sleeping savings).
@@ -193,17 +219,22 @@ class DemSystem {
   /// Advances `n` steps.
   void step(std::size_t n = 1);
 
-  std::size_t size() const;                                ///< particles
-  Vec3 position(std::size_t i) const;                      ///< centre of mass (mm)
-  Vec3 velocity(std::size_t i) const;                      ///< mm/s
-  Vec3 angularVelocity(std::size_t i) const;               ///< rad/s, world
-  Quat orientation(std::size_t i) const;                   ///< shape frame -> world
-  std::size_t templateOf(std::size_t i) const;             ///< template index
-  bool asleep(std::size_t i) const;                        ///< frozen by sleeping
-  double kineticEnergy() const;                            ///< g mm^2/s^2, translation + rotation
-  double potentialEnergy() const;                          ///< gravity, g mm^2/s^2 (z = 0 datum)
-  double elasticEnergy() const;                            ///< normal springs, last step
-  double maxOverlapMm() const;                             ///< deepest node penetration, last step
+  std::size_t size() const;                     ///< particles
+  Vec3 position(std::size_t i) const;           ///< centre of mass (mm)
+  Vec3 velocity(std::size_t i) const;           ///< mm/s
+  Vec3 angularVelocity(std::size_t i) const;    ///< rad/s, world
+  Vec3 angularMomentum(std::size_t i) const;    ///< about the centre, g mm^2/s, world
+  Quat orientation(std::size_t i) const;        ///< shape frame -> world
+  std::size_t templateOf(std::size_t i) const;  ///< template index
+  bool asleep(std::size_t i) const;             ///< frozen by sleeping
+  double kineticEnergy() const;                 ///< g mm^2/s^2, translation + rotation
+  double potentialEnergy() const;               ///< gravity, g mm^2/s^2 (z = 0 datum)
+  double elasticEnergy() const;                 ///< normal springs, last step
+  double maxOverlapMm() const;                  ///< deepest node penetration, last step
+  double meanOverlapMm() const;      ///< mean of the pair contacts' deepest overlap, last step
+  std::size_t contactCount() const;  ///< touching particle pairs, last step
+  /// True once the state blew up (non-finite, or a runaway speed); step() then does nothing.
+  bool diverged() const;
   double timeStepS() const;                                ///< chosen step (s)
   double contactTimeS() const;                             ///< t_c of the reference contact (s)
   double stiffnessNPerMm3() const;                         ///< chosen face stiffness
@@ -220,6 +251,10 @@ class DemSystem {
   void motionMeasures(double& maxSpeed, double& meanKinetic) const;
   /// Wakes every sleeping particle.
   void wakeAll();
+  /// Evaluates every contact once with all particles awake, without moving anything, so the
+  /// overlap measures cover the whole bed (sleeping pairs are otherwise skipped). For the end
+  /// of a run: the tangential springs are refreshed.
+  void measureAllContacts();
 
  private:
   struct Impl;
@@ -248,6 +283,8 @@ struct DemResult {
   double wallTimeS = 0;                    ///< elapsed wall-clock time
   double settleTimeS = 0;                  ///< simulated time when the pour settled
   double maxOverlapMm = 0;                 ///< deepest node penetration at the end
+  double meanOverlapMm = 0;                ///< mean deepest overlap of pair contacts, end
+  std::size_t contacts = 0;                ///< touching particle pairs at the end
   DemCounters counters;                    ///< work done
   std::vector<std::string> messages;       ///< chosen settings and warnings
 };

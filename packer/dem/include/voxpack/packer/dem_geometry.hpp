@@ -26,9 +26,10 @@ std::shared_ptr<const DemContainer> demContainer(std::shared_ptr<const Container
 /// upwards to hold the highest particle): indicator, mask, labels, particle table.
 /// `shapes` must hold every spec of `particles.shape`. Threads over particles; the labels
 /// are written in particle order, so a voxel shared by two overlapping particles goes to the
-/// lower id whatever the thread count.
+/// lower id whatever the thread count. Solid outside the mask (soft wall overlap) is clipped;
+/// its volume (mm^3) goes to `clippedMm3` when given.
 Bed demBed(const ParticleTable& particles, const std::vector<std::shared_ptr<const Shape>>& shapes,
            const Container& container, double voxelMm, int supersample, int threads,
-           Progress& progress);
+           Progress& progress, double* clippedMm3 = nullptr);
 
 }  // namespace voxpack::packer::dem

@@ -1,0 +1,118 @@
+// One force evaluation: contacts of all pairs and walls (parallel, one slot each), then each
+// particle sums its own contacts in pair order, so the bits do not depend on the threads.
+#include <algorithm>
+#include <cmath>
+
+#include "system_impl.hpp"
+
+namespace voxpack::packer::dem {
+
+void DemSystem::Impl::computeForces() {
+  const std::size_t n = x.size();
+  const std::int64_t sn = static_cast<std::int64_t>(n);
+  double vw = 0;
+  const double zw = wallOffset(t, &vw);
+  const double meanWork = workTotal / std::max<double>(1.0, static_cast<double>(n));
+  const int particleThreads = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
+  rot.resize(n);
+  omegaW.resize(n);
+#pragma omp parallel for num_threads(particleThreads) schedule(static)
+  for (std::int64_t si = 0; si < sn; ++si) {
+    const auto i = static_cast<std::size_t>(si);
+    rot[i] = q[i].toRotationMatrix();
+    omegaW[i] = worldRate(rot[i], L[i], tmpl[tid[i]].inertiaG);
+  }
+  std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
+  const std::int64_t np = static_cast<std::int64_t>(pairs.size());
+  // Small systems run serial: a parallel region costs more than it saves there, and far
+  // more on an oversubscribed machine.
+  const int pairThreads = threadsFor(static_cast<double>(np), static_cast<double>(np) * meanWork);
+#pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated, searches)
+  {
+    std::vector<Hit> hits;
+#pragma omp for schedule(dynamic, 32)
+    for (std::int64_t pi = 0; pi < np; ++pi) {
+      Pair& p = pairs[static_cast<std::size_t>(pi)];
+      PairOut& po = pairOut[static_cast<std::size_t>(pi)];
+      po = PairOut{};
+      if (!awake[p.i] && !awake[p.j]) continue;
+      const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
+      if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) continue;
+      ++evaluated;
+      po.evaluated = true;
+      if (closedForm[tid[p.i]] && closedForm[tid[p.j]]) {
+        po.c = spherePair(p);
+        continue;
+      }
+      hits.clear();
+      std::uint64_t evals = 0;
+      // Both surfaces probe each other at half stiffness: symmetric, and a flat contact
+      // of area A and overlap delta carries k A delta as against a wall.
+      pairHits(p, hits, evals, searches);
+      evalsTotal += evals;
+      po.c = nodeContact(hits, body(p.i), body(p.j), pairLaw, p.xi);
+    }
+  }
+  std::uint64_t wallEvals = 0, wallSearches = 0;
+  const int wallThreads = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * meanWork);
+#pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals, wallSearches)
+  {
+    std::vector<Hit> hits[kWallRegions];
+#pragma omp for schedule(dynamic, 16)
+    for (std::int64_t si = 0; si < sn; ++si)
+      wallForces(static_cast<std::size_t>(si), zw, vw, hits, wallEvals, wallSearches);
+  }
+  counters.nodeEvaluations += evalsTotal + wallEvals;
+  counters.nodeListRebuilds += searches + wallSearches;
+  counters.pairChecks += pairs.size();
+  counters.pairEvaluations += evaluated;
+
+  // Springs and diagnostics in pair order (cheap, serial).
+  elastic = 0;
+  maxDepth = 0;
+  sumDepth = 0;
+  contactCount = 0;
+  for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
+    Pair& p = pairs[pi];
+    const PairOut& po = pairOut[pi];
+    if (!po.evaluated) {
+      // A pair of sleeping particles keeps its spring; separated pairs lose it.
+      if (awake[p.i] || awake[p.j]) p.xi.setZero();
+      continue;
+    }
+    p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
+    if (!po.c.touching) continue;
+    elastic += po.c.elastic;
+    maxDepth = std::max(maxDepth, po.c.maxDepth);
+    sumDepth += po.c.maxDepth;
+    ++contactCount;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    elastic += wallElastic[i];
+    maxDepth = std::max(maxDepth, wallDepth[i]);
+  }
+  // Each particle: gravity, its pair contacts in pair order, then its walls.
+#pragma omp parallel for num_threads(particleThreads) schedule(static)
+  for (std::int64_t si = 0; si < sn; ++si) {
+    const auto i = static_cast<std::size_t>(si);
+    Vec3 f(0, 0, -opt.gravityMmPerS2 * tmpl[tid[i]].massG), tq = Vec3::Zero();
+    for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
+      const std::size_t pi = adj[a];
+      const PairOut& po = pairOut[pi];
+      if (!po.evaluated || !po.c.touching) continue;
+      const Pair& p = pairs[pi];
+      if (p.i == i) {
+        f += po.c.force;
+        tq += po.c.torqueA;
+      } else {
+        f -= po.c.force;
+        tq -= po.c.torqueA + (x[p.i] - x[p.j]).cross(po.c.force);
+      }
+    }
+    F[i] = f + wallF[i];
+    T[i] = tq + wallT[i];
+  }
+  forcesValid = true;
+}
+
+}  // namespace voxpack::packer::dem
