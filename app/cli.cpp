@@ -1,5 +1,5 @@
 // The command-line dispatcher shared by the binary (main.cpp) and the Python module:
-// one CLI11 app, one command class per subcommand, exceptions mapped once (SPEC.md):
+// one CLI11 app, one command class per subcommand, exceptions mapped once (docs/interfaces.md):
 // 0 success, 2 bad input or usage (one "error: ..." line), 1 internal failure.
 #include "cli.hpp"
 

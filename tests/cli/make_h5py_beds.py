@@ -1,4 +1,4 @@
-"""Writes bed files by hand with h5py, following SPEC.md's table, plus broken variants.
+"""Writes bed files by hand with h5py, following the bed table of docs/interfaces.md, plus broken variants.
 
 Usage: make_h5py_beds.py OUTDIR. Prints the exact porosity of good.h5 on stdout.
 """

@@ -57,7 +57,7 @@ McMoments monteCarlo(const Shape& s, int n, std::uint64_t seed) {
 TEST(Shapes, AnalyticVolumesAndAreas) {
   EXPECT_NEAR(parseShape("sphere:d=2")->volumeMm3(), 4.0 / 3.0 * kPi, 1e-12);
   EXPECT_NEAR(parseShape("sphere:d=2")->surfaceMm2(), 4 * kPi, 1e-12);
-  // Reference cylinder: V = 87.03 mm^3, d_pe = 5.498 mm (REFERENCES.md).
+  // Reference cylinder: V = 87.03 mm^3, d_pe = 5.498 mm (docs/references.md).
   const auto cyl = parseShape("cylinder:d=5.4,l=3.8");
   EXPECT_NEAR(cyl->volumeMm3(), 87.03, 0.01);
   EXPECT_NEAR(cyl->volumeEquivalentDiameterMm(), 5.498, 0.001);

@@ -11,6 +11,7 @@
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/spec.hpp"
+#include "voxpack/packer/digitise.hpp"
 
 namespace voxpack::packer {
 
@@ -348,13 +349,15 @@ Grid<std::uint8_t> containerMask(const Container& c, const Lattice& lattice, int
   const double sub = 1.0 / ss, off0 = -0.5 + 0.5 * sub;
   const double sx = lattice.spacingMm[2], sy = lattice.spacingMm[1], sz = lattice.spacingMm[0];
   const int need = (ss * ss * ss + 1) / 2;
+  const Vec3 tie = kBoundaryTieBreak * Vec3(sx, sy, sz);
   for (std::int64_t k = 0; k < lattice.nz(); ++k)
     for (std::int64_t j = 0; j < lattice.ny(); ++j) {
       std::fill(count.begin(), count.end(), 0);
       for (int b = 0; b < ss; ++b)
         for (int a = 0; a < ss; ++a) {
+          // Half-open rule of digitise.hpp: the sample p is judged at p + delta.
           const Vec3 p0 = lattice.centerMm(k, j, 0) +
-                          Vec3(off0 * sx, (off0 + a * sub) * sy, (off0 + b * sub) * sz);
+                          Vec3(off0 * sx, (off0 + a * sub) * sy, (off0 + b * sub) * sz) + tie;
           c.insideRow(p0, Vec3(sx * sub, 0, 0), nSamples, row.data());
           for (int s = 0; s < nSamples; ++s)
             count[static_cast<std::size_t>(s / ss)] += row[static_cast<std::size_t>(s)];

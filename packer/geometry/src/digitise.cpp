@@ -19,6 +19,18 @@ Quat normalisedQuaternion(double w, double x, double y, double z) {
   return Quat(w / n, x / n, y / n, z / n);
 }
 
+std::uint64_t digitiseMemoryEstimateBytes(const Shape& shape, double voxelMm) {
+  if (!(voxelMm > 0) || !std::isfinite(voxelMm))
+    throw InputError("digitise: voxel size must be a positive number of mm");
+  const double across = 2 * shape.boundingRadiusMm() / voxelMm + 3;
+  const double cells = across * across * across;
+  const double voxels = 1.05 * shape.volumeMm3() / (voxelMm * voxelMm * voxelMm) + 64;
+  const double faces = 1.5 * shape.surfaceMm2() / (voxelMm * voxelMm) + 64;
+  // Bitmap 1 B per cell, Voxel 12 B, surface index 4 B + face bits 1 B.
+  const double bytes = cells + 12 * voxels + 5 * faces;
+  return bytes < 9.0e18 ? static_cast<std::uint64_t>(bytes) : std::uint64_t{9000000000000000000ULL};
+}
+
 namespace {
 
 // Parameter range [t0, t1] of the line p0 + t * step inside the box b; false when the
@@ -66,14 +78,17 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
   const Eigen::Matrix3d R = Quat(q.coeffs() / qn).toRotationMatrix();
   const Eigen::Matrix3d Rt = R.transpose();
   const double sx = lattice.spacingMm[2], sy = lattice.spacingMm[1], sz = lattice.spacingMm[0];
+  // Half-open rule (kBoundaryTieBreak): sampling p + delta of the shape at centreMm is
+  // sampling p of the shape moved by -delta.
+  const Vec3 centre = centreMm - kBoundaryTieBreak * Vec3(sx, sy, sz);
 
   // World bounding box of the rotated body box, intersected with the bounding sphere box.
   const BoundsMm body = shape.bodyBoundsMm();
   const Vec3 half = 0.5 * (body.max - body.min), mid = 0.5 * (body.max + body.min);
   const Vec3 ext = R.cwiseAbs() * half;
   const double rb = shape.boundingRadiusMm();
-  const Vec3 wmin = (centreMm + R * mid - ext).cwiseMax(centreMm - Vec3::Constant(rb));
-  const Vec3 wmax = (centreMm + R * mid + ext).cwiseMin(centreMm + Vec3::Constant(rb));
+  const Vec3 wmin = (centre + R * mid - ext).cwiseMax(centre - Vec3::Constant(rb));
+  const Vec3 wmax = (centre + R * mid + ext).cwiseMin(centre + Vec3::Constant(rb));
   const Vec3 cmin = lattice.continuousIndex(wmin), cmax = lattice.continuousIndex(wmax);
   // Samples sit within +-(1/2 - 1/2k) of a voxel centre; floor/ceil covers them all.
   const auto lo = [](double v) { return static_cast<std::int64_t>(std::floor(v)); };
@@ -113,7 +128,7 @@ DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q
         for (int a = 0; a < ss; ++a) {
           const Vec3 w0 = lattice.centerMm(k0 + k, j0 + j, i0) +
                           Vec3(off0 * sx, (off0 + a * sub) * sy, (off0 + b * sub) * sz);
-          const Vec3 p0 = Rt * (w0 - centreMm);
+          const Vec3 p0 = Rt * (w0 - centre);
           double t0 = 0, t1 = nSamples - 1;
           if (!clipLine(p0, stepBody, body, t0, t1)) continue;
           const int s0 = std::max(0, static_cast<int>(std::ceil(t0)));

@@ -17,6 +17,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -40,7 +41,20 @@ using Triangle = std::array<Vec3, 3>;
 
 // Reads an ASCII or binary STL into triangles. A binary file is recognised by its size
 // (84 + 50 n bytes); anything else must be ASCII "solid ... facet ... vertex x y z".
+// Largest STL read (bytes): 10 M binary triangles, far more than CGAL handles in seconds.
+constexpr std::uintmax_t kMaxStlBytes = std::uintmax_t{512} << 20;
+
 std::vector<Triangle> readStl(const std::string& path) {
+  // A device or FIFO (mesh:/dev/zero) would be read forever: regular files only, and a
+  // size cap checked before reading.
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw IoError("mesh '" + path + "': no such regular file");
+  const std::uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (ec) throw IoError("mesh '" + path + "': cannot read its size");
+  if (bytes > kMaxStlBytes)
+    throw InputError("mesh '" + path + "': " + std::to_string(bytes) +
+                     " bytes, more than the STL limit of 512 MiB");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError("mesh '" + path + "': cannot open the file");
   std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/random.hpp"
 #include "voxpack/packer/digitise.hpp"
 
@@ -64,6 +65,17 @@ void validate(const McOptions& o) {
               o.tapReboundProbability <= 1,
           "--mc-tap-rebound-probability must be in [0, 1]");
   require(o.tapSweeps >= 0, "--mc-tap-sweeps must be >= 0 (0 = auto)");
+}
+
+std::uint64_t mcMemoryEstimateBytes(const Container& container, const McOptions& o) {
+  const Lattice l = latticeForContainer(container, o.voxelSizeMm, 1);
+  const std::uint64_t n =
+      checkedProduct({static_cast<std::uint64_t>(l.nz()), static_cast<std::uint64_t>(l.ny()),
+                      static_cast<std::uint64_t>(l.nx())},
+                     "Monte Carlo lattice");
+  // Walk: labels 4 + mask 1 + bits 1/8; output bed: indicator 1 + labels 4 + mask 1.
+  // 12 B per voxel leaves ~0.9 B for the writer's chunk buffers and particle lists.
+  return checkedProduct({n, 12}, "Monte Carlo memory estimate");
 }
 
 int settleWindowSweeps(const McOptions& o, double particleDiameterMm) {
@@ -132,12 +144,37 @@ struct Particle {
 class McPacker {
  public:
   McPacker(const std::vector<MixtureComponent>& mixture, const Container& container,
-           const McOptions& options, std::uint64_t seed, Progress& progress)
-      : mixture_(mixture), container_(container), o_(options), seed_(seed), progress_(progress) {}
+           const McOptions& options, std::uint64_t seed, Progress& progress,
+           const McCheckpointing& checkpointing)
+      : mixture_(mixture),
+        container_(container),
+        o_(options),
+        seed_(seed),
+        progress_(progress),
+        ckpt_(checkpointing),
+        lastCheckpoint_(std::chrono::steady_clock::now()) {}
 
   McResult run();
 
  private:
+  // Where the run is: the control flow of run() as data, so a checkpoint can say where to
+  // continue. Stages follow each other in this order (Inject and FillSettle alternate).
+  enum class Stage { Inject, FillSettle, AfterFill, TapSweeps, TapSettle, Finish };
+  // The settling test's running window (settle()).
+  struct SettleState {
+    std::vector<double> sum, prev;
+    bool havePrev = false;
+    double prevMean = 0;
+    int inWindow = 0;
+  };
+  struct Cursor {
+    Stage stage = Stage::Inject;
+    McStatus status = McStatus::Settled;
+    bool full = false;
+    int tap = 0, tapSweep = 0;
+    SettleState settle;
+  };
+
   Vec3 centreOf(const Particle& p) const {
     const double h = o_.voxelSizeMm;
     return p.centreMm + Vec3(static_cast<double>(p.shift[2]) * h,
@@ -167,7 +204,12 @@ class McPacker {
   void applyStep(Particle& p, std::uint32_t id, int axis, int sign);
   void attemptMove(std::size_t index, RandomStream& rng, double pr);
   void sweep(double pr);
-  McStatus settle(double pr);
+  McStatus settle(double pr, SettleState& st);
+  void startSettle(SettleState& st) const;
+  void sweepBoundary();
+  nlohmann::json saveState() const;
+  void restoreState(const nlohmann::json& state);
+  nlohmann::json identity() const;
   std::int64_t injectBatch();
   int nextComponent();
   double highestCentreZ() const;
@@ -196,6 +238,9 @@ class McPacker {
   double maxBoundingMm_ = 0;
   int window_ = 20;
   McStats stats_;
+  const McCheckpointing& ckpt_;
+  std::chrono::steady_clock::time_point lastCheckpoint_;
+  Cursor cursor_;
 };
 
 bool McPacker::digitiseFree(int component, const Vec3& c, const Quat& q, std::uint32_t id,
@@ -338,17 +383,24 @@ void McPacker::report() {
 // above the floor falls by less than tol * that height and (b) no particle's window-mean
 // height falls by more than settleMaxFallDiameters * d. (a) alone misses a few particles
 // still falling onto a large bed; (b) alone never ends under rattling at high p_r.
-McStatus McPacker::settle(double pr) {
+void McPacker::startSettle(SettleState& st) const {
+  st = SettleState{};
+  st.sum.assign(particles_.size(), 0.0);
+  st.prev.assign(particles_.size(), 0.0);
+}
+
+McStatus McPacker::settle(double pr, SettleState& st) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = particles_.size();
   if (n == 0) return McStatus::Settled;
-  std::vector<double> sum(n, 0.0), prev(n, 0.0);
-  bool havePrev = false;
-  double prevMean = 0;
-  int inWindow = 0;
+  std::vector<double>& sum = st.sum;
+  std::vector<double>& prev = st.prev;
+  bool& havePrev = st.havePrev;
+  double& prevMean = st.prevMean;
+  int& inWindow = st.inWindow;
   McStatus status = McStatus::CapReached;
   while (stats_.sweeps < o_.maxSweeps) {
-    checkCancelled();
+    sweepBoundary();
     sweep(pr);
     for (std::size_t p = 0; p < n; ++p)
       if (particles_[p].alive) sum[p] += centreOf(particles_[p]).z() - bounds_.min.z();
@@ -428,8 +480,12 @@ std::int64_t McPacker::injectBatch() {
       // Uniform random orientation (Shoemake's method).
       const double u1 = rng.uniform(), u2 = rng.uniform(), u3 = rng.uniform();
       const double twoPi = 2.0 * std::numbers::pi;
-      const Quat q(std::sqrt(u1) * std::cos(twoPi * u3), std::sqrt(1 - u1) * std::sin(twoPi * u2),
-                   std::sqrt(1 - u1) * std::cos(twoPi * u2), std::sqrt(u1) * std::sin(twoPi * u3));
+      // Normalised before digitising: the stored pose is exactly the one digitised, so a
+      // checkpoint's re-digitisation reproduces the voxels bit for bit.
+      const Quat q =
+          Quat(std::sqrt(u1) * std::cos(twoPi * u3), std::sqrt(1 - u1) * std::sin(twoPi * u2),
+               std::sqrt(1 - u1) * std::cos(twoPi * u2), std::sqrt(u1) * std::sin(twoPi * u3))
+              .normalized();
       // Cheap pre-test of the centre voxel before a full digitisation.
       const Index3 ci = lattice_.nearestIndex(c);
       if (!lattice_.contains(ci.k, ci.j, ci.i) || labels_[lattice_.offset(ci.k, ci.j, ci.i)] != 0)
@@ -437,7 +493,7 @@ std::int64_t McPacker::injectBatch() {
       if (!digitiseFree(component, c, q, id, dp)) continue;
       Particle p;
       p.component = component;
-      adopt(p, dp, c, q.normalized());
+      adopt(p, dp, c, q);
       particles_.push_back(std::move(p));
       writeLabels(particles_.back(), id);
       placed = true;
@@ -476,6 +532,145 @@ Bed McPacker::buildBed() const {
   bed.mask = mask_;
   bed.labels = std::move(labels);
   return bed;
+}
+
+// Between two sweeps the whole state is particles, counters and the cursor: a
+// checkpoint goes here, by the clock, and once more when the run is cancelled (so an
+// interrupted run can be resumed from where it stopped).
+void McPacker::sweepBoundary() {
+  const bool writing = ckpt_.write && ckpt_.everySeconds > 0;
+  if (progress_.cancelled()) {
+    if (writing) ckpt_.write(saveState());
+    throw Cancelled("Monte Carlo packing stopped");
+  }
+  if (!writing) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - lastCheckpoint_).count() < ckpt_.everySeconds) return;
+  ckpt_.write(saveState());
+  lastCheckpoint_ = now;
+}
+
+nlohmann::json McPacker::identity() const {
+  nlohmann::json mix = nlohmann::json::array();
+  for (const auto& m : mixture_) mix.push_back({m.shape->spec(), m.fraction});
+  return {{"options", toJson(o_)},
+          {"seed", seed_},
+          {"mixture", mix},
+          {"container", container_.spec()},
+          {"lattice", {lattice_.nz(), lattice_.ny(), lattice_.nx()}}};
+}
+
+nlohmann::json McPacker::saveState() const {
+  const Cursor& c = cursor_;
+  nlohmann::json parts = nlohmann::json::array();
+  for (const Particle& p : particles_)
+    parts.push_back({p.component,
+                     {p.centreMm.x(), p.centreMm.y(), p.centreMm.z()},
+                     {p.q.w(), p.q.x(), p.q.y(), p.q.z()},
+                     {p.shift[0], p.shift[1], p.shift[2]},
+                     p.alive});
+  const McStats& st = stats_;
+  return {{"format", "voxpack-mc-state"},
+          {"version", 1},
+          {"identity", identity()},
+          {"stage", static_cast<int>(c.stage)},
+          {"status", static_cast<int>(c.status)},
+          {"full", c.full},
+          {"tap", c.tap},
+          {"tap_sweep", c.tapSweep},
+          {"settle",
+           {{"sum", c.settle.sum},
+            {"prev", c.settle.prev},
+            {"have_prev", c.settle.havePrev},
+            {"prev_mean", c.settle.prevMean},
+            {"in_window", c.settle.inWindow}}},
+          {"stats",
+           {st.sweeps, st.triedMoves, st.acceptedMoves, st.triedRotations, st.acceptedRotations,
+            st.batches, st.injected, st.removed}},
+          {"assigned", assigned_},
+          {"particles", parts}};
+}
+
+void McPacker::restoreState(const nlohmann::json& j) {
+  try {
+    if (j.at("format") != "voxpack-mc-state" || j.at("version") != 1)
+      throw FormatError("checkpoint: not a Monte Carlo state of this version");
+    if (j.at("identity") != identity())
+      throw InputError(
+          "checkpoint: it belongs to another run (options, seed, shapes, container or lattice "
+          "differ)");
+    Cursor c;
+    const int stage = j.at("stage").get<int>(), status = j.at("status").get<int>();
+    if (stage < 0 || stage > static_cast<int>(Stage::Finish) || status < 0 || status > 2)
+      throw FormatError("checkpoint: bad stage or status");
+    c.stage = static_cast<Stage>(stage);
+    c.status = static_cast<McStatus>(status);
+    c.full = j.at("full").get<bool>();
+    c.tap = j.at("tap").get<int>();
+    c.tapSweep = j.at("tap_sweep").get<int>();
+    const auto& se = j.at("settle");
+    c.settle.sum = se.at("sum").get<std::vector<double>>();
+    c.settle.prev = se.at("prev").get<std::vector<double>>();
+    c.settle.havePrev = se.at("have_prev").get<bool>();
+    c.settle.prevMean = se.at("prev_mean").get<double>();
+    c.settle.inWindow = se.at("in_window").get<int>();
+    const auto st = j.at("stats").get<std::vector<std::int64_t>>();
+    if (st.size() != 8) throw FormatError("checkpoint: bad stats");
+    stats_.sweeps = st[0];
+    stats_.triedMoves = st[1];
+    stats_.acceptedMoves = st[2];
+    stats_.triedRotations = st[3];
+    stats_.acceptedRotations = st[4];
+    stats_.batches = st[5];
+    stats_.injected = st[6];
+    stats_.removed = st[7];
+    assigned_ = j.at("assigned").get<std::vector<std::int64_t>>();
+    if (assigned_.size() != mixture_.size()) throw FormatError("checkpoint: bad mixture counts");
+    const auto& parts = j.at("particles");
+    if (parts.size() >= kWall - 1) throw FormatError("checkpoint: too many particles");
+    particles_.clear();
+    particles_.reserve(parts.size());
+    for (const auto& e : parts) {
+      const int comp = e.at(0).get<int>();
+      if (comp < 0 || comp >= static_cast<int>(mixture_.size()))
+        throw FormatError("checkpoint: bad particle component");
+      const auto x = e.at(1).get<std::array<double, 3>>();
+      const auto q = e.at(2).get<std::array<double, 4>>();
+      const auto sh = e.at(3).get<std::array<std::int64_t, 3>>();
+      const Vec3 cm(x[0], x[1], x[2]);
+      const Quat qq(q[0], q[1], q[2], q[3]);
+      const std::uint32_t id = idOf(particles_.size());
+      // The same digitisation as when the pose was adopted, then its lattice shift; the
+      // voxels must land inside the container and on no other particle.
+      const DigitalParticle dp = digitise(*mixture_[static_cast<std::size_t>(comp)].shape, cm, qq,
+                                          lattice_, DigitiseOptions{o_.supersample});
+      Particle p;
+      p.component = comp;
+      adopt(p, dp, cm, qq);
+      for (int a = 0; a < 3; ++a) {
+        const std::int64_t n = sh[static_cast<std::size_t>(2 - a)];
+        if (std::abs(n) > 2 * std::max({lattice_.nx(), lattice_.ny(), lattice_.nz()}))
+          throw FormatError("checkpoint: particle shift out of the lattice");
+        p.shift[static_cast<std::size_t>(2 - a)] = n;
+        p.base += n * stride_[static_cast<std::size_t>(a)];
+      }
+      const auto total = static_cast<std::int64_t>(lattice_.size());
+      for (const std::int64_t off : p.voxels) {
+        const std::int64_t o = p.base + off;
+        if (o < 0 || o >= total || labels_[static_cast<std::size_t>(o)] != 0)
+          throw FormatError("checkpoint: particle " + std::to_string(particles_.size()) +
+                            " overlaps another or leaves the container");
+      }
+      p.alive = e.at(4).get<bool>();
+      particles_.push_back(std::move(p));
+      writeLabels(particles_.back(), id);
+    }
+    if (c.settle.sum.size() != particles_.size() || c.settle.prev.size() != particles_.size())
+      throw FormatError("checkpoint: settling window does not match the particles");
+    cursor_ = std::move(c);
+  } catch (const nlohmann::json::exception& e) {
+    throw FormatError(std::string("checkpoint: malformed state (") + e.what() + ")");
+  }
 }
 
 McResult McPacker::run() {
@@ -526,37 +721,66 @@ McResult McPacker::run() {
   // height closer than one diameter to the top counts as reached when the bed gets there.
   const double fillGoalMm =
       std::min(o_.fillHeightMm, bounds_.max.z() - bounds_.min.z() - diameterMm_);
-  McStatus status = McStatus::Settled;
-  bool full = false;
-  for (;;) {
-    if (injectBatch() == 0) {
-      full = true;  // the previous settle's status stands
-      break;
-    }
-    status = settle(o_.reboundProbability);
-    if (status == McStatus::CapReached) break;
-    if (o_.count > 0 && stats_.injected >= o_.count) break;
-    if (o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm) break;
-  }
-  if (full && status == McStatus::Settled) {
-    // In fill mode a full container at the fill height is success, not a shortfall.
-    const bool reached =
-        o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm - 1e-9;
-    status = reached ? McStatus::Settled : McStatus::ContainerFull;
-  }
+  if (ckpt_.resume) restoreState(*ckpt_.resume);
+  Cursor& c = cursor_;
   const int tapSweeps = o_.tapSweeps > 0 ? o_.tapSweeps : window_;
-  for (int t = 0; t < o_.tapCycles && status != McStatus::CapReached; ++t) {
-    // A tap: a phase of raised rebound probability loosens the bed, then it settles again.
-    const auto tt = std::chrono::steady_clock::now();
-    for (int s = 0; s < tapSweeps && stats_.sweeps < o_.maxSweeps; ++s) {
-      checkCancelled();
-      sweep(o_.tapReboundProbability);
+  while (c.stage != Stage::Finish) {
+    switch (c.stage) {
+      case Stage::Inject:
+        if (injectBatch() == 0) {
+          c.full = true;  // the previous settle's status stands
+          c.stage = Stage::AfterFill;
+          break;
+        }
+        startSettle(c.settle);
+        c.stage = Stage::FillSettle;
+        break;
+      case Stage::FillSettle:
+        c.status = settle(o_.reboundProbability, c.settle);
+        c.stage = Stage::Inject;
+        if (c.status == McStatus::CapReached || (o_.count > 0 && stats_.injected >= o_.count) ||
+            (o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm))
+          c.stage = Stage::AfterFill;
+        break;
+      case Stage::AfterFill:
+        if (c.full && c.status == McStatus::Settled) {
+          // In fill mode a full container at the fill height is success, not a shortfall.
+          const bool reached =
+              o_.fillHeightMm > 0 && highestCentreZ() - bounds_.min.z() >= fillGoalMm - 1e-9;
+          c.status = reached ? McStatus::Settled : McStatus::ContainerFull;
+        }
+        c.stage = Stage::TapSweeps;
+        break;
+      case Stage::TapSweeps: {
+        if (c.tap >= o_.tapCycles || c.status == McStatus::CapReached) {
+          c.stage = Stage::Finish;
+          break;
+        }
+        // A tap: a phase of raised rebound probability loosens the bed, then it settles.
+        const auto tt = std::chrono::steady_clock::now();
+        while (c.tapSweep < tapSweeps && stats_.sweeps < o_.maxSweeps) {
+          sweepBoundary();
+          sweep(o_.tapReboundProbability);
+          ++c.tapSweep;
+        }
+        stats_.walkSeconds +=
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
+        startSettle(c.settle);
+        c.stage = Stage::TapSettle;
+        break;
+      }
+      case Stage::TapSettle:
+        if (settle(o_.reboundProbability, c.settle) == McStatus::CapReached)
+          c.status = McStatus::CapReached;
+        ++c.tap;
+        c.tapSweep = 0;
+        c.stage = Stage::TapSweeps;
+        break;
+      case Stage::Finish:
+        break;
     }
-    stats_.walkSeconds +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - tt).count();
-    const McStatus s = settle(o_.reboundProbability);
-    if (s == McStatus::CapReached) status = s;
   }
+  const McStatus status = c.status;
   if (o_.fillHeightMm > 0) {
     const double zMax = bounds_.min.z() + o_.fillHeightMm;
     for (Particle& p : particles_)
@@ -580,8 +804,9 @@ McResult McPacker::run() {
 }  // namespace
 
 McResult packMonteCarlo(const std::vector<MixtureComponent>& mixture, const Container& container,
-                        const McOptions& options, std::uint64_t seed, Progress& progress) {
-  McPacker packer(mixture, container, options, seed, progress);
+                        const McOptions& options, std::uint64_t seed, Progress& progress,
+                        const McCheckpointing& checkpointing) {
+  McPacker packer(mixture, container, options, seed, progress, checkpointing);
   return packer.run();
 }
 

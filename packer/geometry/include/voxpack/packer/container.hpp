@@ -48,7 +48,8 @@ std::shared_ptr<const Container> parseContainer(const std::string& spec);
 Lattice latticeForContainer(const Container& c, double voxelMm, int marginVoxels = 1);
 
 /// The container interior on `lattice`: 1 where the voxel centre is inside (or, with
-/// supersample k > 1, where at least half of k^3 samples are inside), else 0.
+/// supersample k > 1, where at least half of k^3 samples are inside), else 0. Samples on
+/// a wall follow the half-open rule of digitise.hpp (kBoundaryTieBreak).
 Grid<std::uint8_t> containerMask(const Container& c, const Lattice& lattice, int supersample = 1);
 
 /// Wall distance (mm, > 0 inside, < 0 outside) of every voxel centre of `lattice`: the

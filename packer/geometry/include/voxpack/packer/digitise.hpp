@@ -29,6 +29,15 @@ struct Voxel {
   auto operator<=>(const Voxel&) const = default;
 };
 
+/// The half-open boundary rule shared by shapes, meshes, containers and masks: a sample
+/// point p counts as inside when p + kBoundaryTieBreak * (sx, sy, sz) is inside the closed
+/// solid. A face lying on a plane of sample points thus belongs to one side only (a solid
+/// owns [min, max) along each axis), so a 4 mm box at 0.5 mm is 8 voxels across, not 9.
+/// The shift (a fraction of a voxel) is far above coordinate rounding (~1e-13 voxel for
+/// lattices of 1e3 voxels) and far below anything that changes a random pose: the mean
+/// digitisation error over random poses is unchanged (docs/digitisation.md).
+inline constexpr double kBoundaryTieBreak = 1e-7;
+
 /// Options of digitise().
 struct DigitiseOptions {
   /// Samples per axis per voxel (k^3 samples, solid when at least half inside). 1 = voxel
@@ -53,9 +62,14 @@ struct DigitalParticle {
 
 /// Digitises `shape` with its centre of mass at `centreMm` and orientation `q` (unit;
 /// body -> world) on `lattice` (only spacing and origin are used; voxels outside the
-/// lattice dims are kept). Throws InputError for a non-unit/zero quaternion.
+/// lattice dims are kept). Boundary samples follow kBoundaryTieBreak. Throws InputError for a
+/// non-unit/zero quaternion.
 DigitalParticle digitise(const Shape& shape, const Vec3& centreMm, const Quat& q,
                          const Lattice& lattice, const DigitiseOptions& options = {});
+
+/// Peak bytes of one digitise() of `shape` at voxel size `voxelMm` in any pose (its
+/// bounding-sphere box bitmap plus the voxel and surface lists), for the memory budget.
+std::uint64_t digitiseMemoryEstimateBytes(const Shape& shape, double voxelMm);
 
 /// Normalises a user quaternion (w, x, y, z); InputError when its norm is ~0 or not finite.
 Quat normalisedQuaternion(double w, double x, double y, double z);

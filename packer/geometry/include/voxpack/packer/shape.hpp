@@ -53,7 +53,7 @@ class Shape {
   virtual void insideRow(const Vec3& p0, const Vec3& step, int n, std::uint8_t* out) const;
 };
 
-/// Parses a shape SPEC (SPEC.md: sphere, cylinder, ring, box, ellipsoid, trilobe,
+/// Parses a shape SPEC (docs/interfaces.md: sphere, cylinder, ring, box, ellipsoid, trilobe,
 /// mesh:FILE.stl[,scale=S]). Throws InputError on unknown shapes or bad sizes, IoError
 /// on unreadable mesh files.
 std::shared_ptr<const Shape> parseShape(const std::string& spec);

@@ -1,11 +1,12 @@
 #pragma once
 /// \file mc.hpp
-/// Monte Carlo digital packing (DigiPac MC, reference-paper.txt §2.1): particles random-walk
-/// on a label lattice one voxel step at a time, overlapping moves are refused and upward
-/// moves pass only with the rebounding probability. The algorithm and its choices are in
+/// Monte Carlo digital packing (DigiPac MC, [Xu 2008] §2.1 in docs/references.md): particles
+/// random-walk on a label lattice one voxel step at a time, overlapping moves are refused and
+/// upward moves pass only with the rebounding probability. The algorithm and its choices are in
 /// docs/mc.md.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -57,6 +58,12 @@ struct McOptions {
 /// Throws InputError naming the option when a field is out of range.
 void validate(const McOptions& options);
 
+/// Peak bytes packMonteCarlo() needs for `container` at options.voxelSizeMm, before it
+/// allocates anything: the walk's labels (4 B), occupancy bits and mask per voxel, then
+/// the output bed (indicator, labels, mask) next to them. InputError when the lattice is
+/// too large to index; the caller compares the estimate with the memory budget.
+std::uint64_t mcMemoryEstimateBytes(const Container& container, const McOptions& options);
+
 /// The settling window K actually used for a mixture (resolves settleSweeps = 0).
 int settleWindowSweeps(const McOptions& options, double particleDiameterMm);
 
@@ -83,12 +90,27 @@ struct McResult {
   McStats stats;                        ///< counters
 };
 
+/// Resumable checkpoints of a run. A state is taken between two sweeps and holds every
+/// particle's exact pose, the counters and where the run is (filling, settling window,
+/// tap); the random streams are keyed by sweep and particle index, so a resumed run
+/// continues with exactly the draws of the uninterrupted one.
+struct McCheckpointing {
+  double everySeconds = 0;  ///< wall seconds between states (0 = never)
+  /// Stores one state (the caller writes it atomically); called from the walk's thread.
+  std::function<void(const nlohmann::json& state)> write;
+  /// A state to continue from (from `write`), or null to start afresh. InputError when it
+  /// belongs to other options, seed, mixture or container.
+  const nlohmann::json* resume = nullptr;
+};
+
 /// Packs `mixture` into `container` by the Monte Carlo walk. Deterministic for a given
-/// seed (the walk is sequential: thread count cannot change it). Throws InputError on bad
+/// seed (the walk is sequential: thread count cannot change it), and a run resumed from a
+/// checkpoint gives the same bed as the uninterrupted one. Throws InputError on bad
 /// options or a particle that digitises to nothing; Cancelled when progress asks.
 McResult packMonteCarlo(const std::vector<MixtureComponent>& mixture, const Container& container,
                         const McOptions& options, std::uint64_t seed,
-                        Progress& progress = nullProgress());
+                        Progress& progress = nullProgress(),
+                        const McCheckpointing& checkpointing = {});
 
 /// The options as a JSON object (provenance).
 nlohmann::json toJson(const McOptions& options);
