@@ -90,7 +90,8 @@ TEST(FlowCli, NotConvergedRoiAndBadOptions) {
   TempDir tmp;
   writeBed(tmp / "bed.h5", smallColumn());
   const std::string in = (tmp / "bed.h5").string(), out = (tmp / "f.json").string();
-  CliResult r = runVoxpack({"flow", in, "-o", out, "--max-steps", "30", "--quiet"});
+  CliResult r =
+      runVoxpack({"flow", in, "-o", out, "--max-steps", "30", "--check-interval", "10", "--quiet"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   nlohmann::json j = readJsonFile(out);
   EXPECT_EQ(j["status"], "not_converged");
