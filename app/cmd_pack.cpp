@@ -1,7 +1,9 @@
 // voxpack pack: the scene shared by both packing modes (flags merged over the TOML scene
 // file, validated), then the chosen mode's run(). The scene-file format is docs/scene.md.
 #include <cmath>
+#include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -11,6 +13,7 @@
 #include "voxel_choice.hpp"
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/spec.hpp"
 #include "voxpack/core/version.hpp"
 #include "voxpack/packer/container.hpp"
@@ -37,8 +40,20 @@ double tomlDouble(const fs::path& file, const std::string& key, const toml::node
 
 std::int64_t tomlInt(const fs::path& file, const std::string& key, const toml::node& node) {
   const auto v = node.value<std::int64_t>();
-  if (!v) throw InputError(where(file, node) + ": " + key + " must be an integer");
+  if (!v || !node.is_integer())
+    throw InputError(where(file, node) + ": " + key + " must be an integer");
   return *v;
+}
+
+// An integer key that must land in [lo, hi] (e.g. an int field): refused, naming the key
+// and the range, instead of being narrowed (4294967297 would read as 1 in an int).
+std::int64_t tomlIntIn(const fs::path& file, const std::string& key, const toml::node& node,
+                       std::int64_t lo, std::int64_t hi) {
+  const std::int64_t v = tomlInt(file, key, node);
+  if (v < lo || v > hi)
+    throw InputError(where(file, node) + ": " + key + " = " + std::to_string(v) +
+                     " is out of range (" + std::to_string(lo) + ".." + std::to_string(hi) + ")");
+  return v;
 }
 
 std::string tomlString(const fs::path& file, const std::string& key, const toml::node& node) {
@@ -64,6 +79,53 @@ ShapeFraction parseShapeFraction(const std::string& text) {
   return sf;
 }
 
+// The scene part of a checkpoint: everything mergeScene() decided.
+nlohmann::json sceneJson(const PackScene& s) {
+  nlohmann::json shapes = nlohmann::json::array();
+  for (const auto& sf : s.shapes) shapes.push_back({{"spec", sf.spec}, {"fraction", sf.fraction}});
+  return {{"shapes", shapes},
+          {"container", s.containerSpec},
+          {"voxel_size_mm", s.voxelSizeMm},
+          {"count", s.count},
+          {"fill_height_mm", s.fillHeightMm},
+          {"seed", s.seed},
+          {"supersample", s.supersample},
+          {"provenance", s.provenance}};
+}
+
+// Largest checkpoint read: far above any state (~100 B per particle).
+constexpr std::uintmax_t kMaxCheckpointBytes = std::uintmax_t{1} << 30;
+
+nlohmann::json readCheckpointFile(const fs::path& file) {
+  std::error_code ec;
+  const std::uintmax_t bytes = fs::file_size(file, ec);
+  if (ec) throw IoError("--resume " + file.string() + ": cannot read the file");
+  if (bytes > kMaxCheckpointBytes)
+    throw InputError("--resume " + file.string() + ": " + std::to_string(bytes) +
+                     " bytes, more than the checkpoint limit of 1 GiB");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw IoError("--resume " + file.string() + ": cannot open the file");
+  nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object() || doc.value("format", "") != "voxpack-checkpoint" ||
+      doc.value("version", 0) != 1)
+    throw FormatError("--resume " + file.string() + ": not a voxpack checkpoint (version 1)");
+  return doc;
+}
+
+}  // namespace
+
+void writeCheckpointFile(const PackScene& scene, const std::string& mode,
+                         const nlohmann::json& state) {
+  const nlohmann::json doc = {{"format", "voxpack-checkpoint"},
+                              {"version", 1},
+                              {"mode", mode},
+                              {"scene", sceneJson(scene)},
+                              {"state", state}};
+  writeTextFileAtomic(scene.checkpoint, doc.dump());
+}
+
+namespace {
+
 class PackCommand final : public Command {
  public:
   PackCommand() : mc_(makeMcMode()), dem_(makeDemMode()) {}
@@ -88,6 +150,15 @@ class PackCommand final : public Command {
     sub.add_option("--config", config_, "TOML scene file (flags win over it), see docs/scene.md");
     sub.add_option("--supersample", supersample_,
                    "digitisation samples per voxel axis (1..8, default 1)");
+    sub.add_flag("--check", check_,
+                 "parse and validate the scene (flags, scene file, the mode's options), print "
+                 "it as JSON and pack nothing");
+    sub.add_option("--checkpoint", checkpoint_,
+                   "write a resumable state to this file (atomically) while packing");
+    sub.add_option("--checkpoint-every", checkpointEvery_,
+                   "seconds of wall time between checkpoints (default 60 with --checkpoint)");
+    sub.add_option("--resume", resume_, "continue the run saved in this checkpoint file");
+    sub.add_option("--from", from_, "continue from an existing bed file (tap it, add particles)");
     for (PackMode* mode : {mc_.get(), dem_.get()}) {
       std::set<const CLI::Option*> before;
       for (const CLI::Option* o : sub.get_options()) before.insert(o);
@@ -99,6 +170,8 @@ class PackCommand final : public Command {
 
   int execute(const GlobalOptions& global) override {
     commandLine_ = global.commandLine;
+    memory_ = &global.memory;
+    if (!resume_.empty()) return resume(global);
     toml::table doc;
     if (given("--config")) doc = loadScene(config_);
     PackScene scene = mergeScene(doc);
@@ -111,11 +184,67 @@ class PackCommand final : public Command {
     const toml::table* table = doc[mode->name()].as_table();
     if (doc.contains(mode->name()) && !table)
       throw InputError(config_.string() + ": [" + mode->name() + "] must be a table");
+    if (check_ && mode->name() != "mc") {
+      // Only the MC mode checks its own table without packing (PackScene::checkOnly).
+      std::cout << scene.provenance.dump(2) << '\n';
+      return 0;
+    }
     return mode->run(scene, table, *sub_, global);
   }
 
  private:
   bool given(const std::string& flag) const { return sub_->get_option(flag)->count() > 0; }
+
+  // --resume FILE: the scene and the mode's options come from the checkpoint; only where
+  // to write (the bed, further checkpoints) may be given again.
+  int resume(const GlobalOptions& global) {
+    static const std::set<std::string> allowed{"--resume",     "--output",           "-o",
+                                               "--checkpoint", "--checkpoint-every", "--help"};
+    for (const CLI::Option* o : sub_->get_options())
+      if (o->count() > 0 && !allowed.count(o->get_name()))
+        throw UsageError("--resume takes the scene from the checkpoint: " + o->get_name() +
+                         " cannot be given with it");
+    std::error_code ec;
+    if (!fs::is_regular_file(resume_, ec))
+      throw IoError("--resume " + resume_.string() + ": no such file");
+    const nlohmann::json doc = readCheckpointFile(resume_);
+    PackScene s;
+    try {
+      const auto& j = doc.at("scene");
+      for (const auto& sf : j.at("shapes"))
+        s.shapes.push_back({sf.at("spec").get<std::string>(), sf.at("fraction").get<double>()});
+      s.containerSpec = j.at("container").get<std::string>();
+      s.voxelSizeMm = j.at("voxel_size_mm").get<double>();
+      s.count = j.at("count").get<std::int64_t>();
+      s.fillHeightMm = j.at("fill_height_mm").get<double>();
+      s.seed = j.at("seed").get<std::uint64_t>();
+      s.supersample = j.at("supersample").get<int>();
+      s.provenance = j.at("provenance");
+      s.resumeState = doc.at("state");
+    } catch (const nlohmann::json::exception& e) {
+      throw FormatError("--resume " + resume_.string() + ": malformed scene (" + e.what() + ")");
+    }
+    const std::string mode = doc.value("mode", "");
+    PackMode* m = mode == "mc" ? mc_.get() : mode == "dem" ? dem_.get() : nullptr;
+    if (!m) throw FormatError("--resume " + resume_.string() + ": unknown mode '" + mode + "'");
+    s.output = given("--output") ? output_
+                                 : fs::path(s.provenance.value("scene", nlohmann::json::object())
+                                                .value("output", std::string()));
+    if (s.output.empty()) throw UsageError("-o OUT.h5 is required");
+    ensureWritableDirectory(s.output.has_parent_path() ? s.output.parent_path() : fs::path("."),
+                            false);
+    s.resume = resume_;
+    s.checkpoint = checkpoint_;
+    s.checkpointEverySeconds = checkpoint_.empty()           ? 0
+                               : given("--checkpoint-every") ? checkpointEvery_
+                                                             : 60;
+    if (!checkpoint_.empty() &&
+        !(std::isfinite(s.checkpointEverySeconds) && s.checkpointEverySeconds > 0))
+      throw InputError("--checkpoint-every must be > 0 seconds");
+    s.provenance["resumed_from"] = resume_.string();
+    s.provenance["command_line"] = commandLine_;
+    return m->run(s, nullptr, *sub_, global);
+  }
 
   toml::table loadScene(const fs::path& file) const {
     std::error_code ec;
@@ -222,7 +351,8 @@ class PackCommand final : public Command {
     if (given("--fill-height")) fill = fillHeightMm_;
     // A flag of either kind replaces both keys of the file: the flag picks the goal.
     if (!count && !fill) {
-      if (const toml::node* n = doc.get("count")) count = tomlInt(cf, "count", *n);
+      if (const toml::node* n = doc.get("count"))
+        count = tomlIntIn(cf, "count", *n, 1, std::numeric_limits<std::int64_t>::max());
       if (const toml::node* n = doc.get("fill_height_mm"))
         fill = tomlDouble(cf, "fill_height_mm", *n);
     }
@@ -254,9 +384,31 @@ class PackCommand final : public Command {
     if (given("--supersample"))
       s.supersample = supersample_;
     else if (const toml::node* n = doc.get("supersample"))
-      s.supersample = static_cast<int>(tomlInt(cf, "supersample", *n));
+      s.supersample = static_cast<int>(tomlIntIn(cf, "supersample", *n, 1, 8));
     if (s.supersample < 1 || s.supersample > 8) throw InputError("--supersample must be in 1..8");
 
+    s.checkOnly = check_;
+    s.checkpoint = checkpoint_;
+    s.resume = resume_;
+    s.from = from_;
+    if (given("--checkpoint-every")) {
+      if (checkpoint_.empty()) throw UsageError("--checkpoint-every needs --checkpoint FILE");
+      if (!(std::isfinite(checkpointEvery_) && checkpointEvery_ > 0))
+        throw InputError("--checkpoint-every must be > 0 seconds");
+      s.checkpointEverySeconds = checkpointEvery_;
+    } else if (!checkpoint_.empty()) {
+      s.checkpointEverySeconds = 60;
+    }
+    if (!resume_.empty() && !from_.empty())
+      throw UsageError("give --resume CHECKPOINT or --from BED.h5, not both");
+    for (const auto& [flag, file] : {std::pair{"--resume", resume_}, std::pair{"--from", from_}}) {
+      std::error_code ec;
+      if (!file.empty() && !fs::is_regular_file(file, ec))
+        throw IoError(std::string(flag) + " " + file.string() + ": no such file");
+    }
+    if (!checkpoint_.empty())
+      ensureWritableDirectory(
+          checkpoint_.has_parent_path() ? checkpoint_.parent_path() : fs::path("."), false);
     validateGeometry(s);
     ensureWritableDirectory(s.output.has_parent_path() ? s.output.parent_path() : fs::path("."),
                             false);
@@ -287,7 +439,7 @@ class PackCommand final : public Command {
 
   // Refuses scenes no mode can pack: particles smaller than a voxel, or a container that
   // cannot hold one particle.
-  static void validateGeometry(PackScene& s) {
+  void validateGeometry(PackScene& s) const {
     const auto container = packer::parseContainer(s.containerSpec);
     s.containerSpec = container->spec();
     const packer::BoundsMm b = container->boundsMm();
@@ -304,6 +456,9 @@ class PackCommand final : public Command {
           << " (volume-equivalent diameter " << deq << " mm)";
         throw InputError(m.str());
       }
+      requireWithinBudget(packer::digitiseMemoryEstimateBytes(*shape, s.voxelSizeMm), *memory_,
+                          "pack: digitising " + sf.spec + " at --voxel-size " +
+                              packer::formatNumber(s.voxelSizeMm) + " mm");
       const packer::DigitalParticle dp = packer::digitise(
           *shape, Vec3::Zero(), Quat::Identity(), unit, packer::DigitiseOptions{s.supersample});
       if (dp.voxels.empty())
@@ -336,6 +491,7 @@ class PackCommand final : public Command {
   std::unique_ptr<PackMode> mc_, dem_;
   std::map<const CLI::Option*, std::string> owner_;
   CLI::App* sub_ = nullptr;
+  const MemoryBudget* memory_ = nullptr;  // the command's budget, set by execute()
   std::string mode_, container_, scene_mode_, commandLine_;
   std::vector<std::string> shapes_;
   double voxelSizeMm_ = 0, fillHeightMm_ = 0;
@@ -368,7 +524,9 @@ class PackCommand final : public Command {
   }
   std::int64_t count_ = 0;
   std::uint64_t seed_ = 0;
-  fs::path output_, config_;
+  fs::path output_, config_, checkpoint_, resume_, from_;
+  double checkpointEvery_ = 0;
+  bool check_ = false;
   int supersample_ = 1;
 };
 

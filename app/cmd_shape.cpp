@@ -6,6 +6,7 @@
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/spec.hpp"
 #include "voxpack/core/version.hpp"
 #include "voxpack/packer/digitise.hpp"
@@ -46,6 +47,9 @@ class ShapeCommand final : public Command {
       q = packer::normalisedQuaternion(v[0], v[1], v[2], v[3]);
     }
     const auto shape = packer::parseShape(shape_);
+    requireWithinBudget(packer::digitiseMemoryEstimateBytes(*shape, voxelMm_), global.memory,
+                        "shape: digitising " + shape->spec() + " at --voxel-size " +
+                            packer::formatNumber(voxelMm_) + " mm");
     // The centre of mass sits on the centre of voxel (0, 0, 0).
     const Lattice lattice = Lattice::isotropic(1, 1, 1, voxelMm_);
     packer::DigitiseOptions opt;

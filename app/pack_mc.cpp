@@ -10,6 +10,7 @@
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/packer/container.hpp"
 #include "voxpack/packer/mc.hpp"
 #include "voxpack/packer/shape.hpp"
@@ -87,6 +88,15 @@ class McMode final : public PackMode {
     o.fillHeightMm = scene.fillHeightMm;
     o.supersample = scene.supersample;
     const auto& keys = mcKeys();
+    if (!scene.resumeState.is_null()) {
+      // The options the checkpointed run had (its state checks them again).
+      try {
+        fromJson(o, scene.resumeState.at("identity").at("options"));
+      } catch (const nlohmann::json::exception& e) {
+        throw FormatError("--resume " + scene.resume.string() + ": malformed options (" + e.what() +
+                          ")");
+      }
+    }
     if (table) {
       for (const auto& [k, node] : *table) {
         const McKey* key = nullptr;
@@ -101,14 +111,40 @@ class McMode final : public PackMode {
     for (std::size_t n = 0; n < keys.size(); ++n)
       if (pack.get_option(keys[n].flag)->count() > 0) set(o, keys[n], values_[n], keys[n].flag);
     packer::validate(o);
+    if (!scene.from.empty())
+      throw UsageError("--from is not available for --mode mc (use --resume CHECKPOINT)");
+    if (scene.checkOnly) {
+      nlohmann::json j = scene.provenance;
+      j["mc"] = packer::toJson(o);
+      sanitizeNonFinite(j);
+      std::cout << j.dump(2) << '\n';
+      return 0;
+    }
 
     std::vector<packer::MixtureComponent> mixture;
     for (const auto& sf : scene.shapes)
       mixture.push_back({packer::parseShape(sf.spec), sf.fraction});
     const auto container = packer::parseContainer(scene.containerSpec);
 
+    {
+      // Estimate before allocating: a tiny voxel must be refused in seconds, not by the
+      // kernel's OOM killer.
+      const Lattice l = packer::latticeForContainer(*container, o.voxelSizeMm, 1);
+      std::ostringstream what;
+      what << "pack --mode mc: a " << l.nx() << " x " << l.ny() << " x " << l.nz()
+           << " lattice (--voxel-size " << o.voxelSizeMm << " mm)";
+      requireWithinBudget(packer::mcMemoryEstimateBytes(*container, o), global.memory, what.str());
+    }
     CommandProgress progress(global);
-    packer::McResult r = packer::packMonteCarlo(mixture, *container, o, scene.seed, progress);
+    packer::McCheckpointing ckpt;
+    if (!scene.checkpoint.empty()) {
+      ckpt.everySeconds = scene.checkpointEverySeconds;
+      ckpt.write = [&scene](const nlohmann::json& state) {
+        writeCheckpointFile(scene, "mc", state);
+      };
+    }
+    if (!scene.resumeState.is_null()) ckpt.resume = &scene.resumeState;
+    packer::McResult r = packer::packMonteCarlo(mixture, *container, o, scene.seed, progress, ckpt);
 
     nlohmann::json prov = scene.provenance;
     prov["mc"] = r.bed.provenance["mc"];
@@ -133,6 +169,25 @@ class McMode final : public PackMode {
   }
 
  private:
+  // McOptions from packer::toJson(McOptions) (a checkpoint's identity).
+  static void fromJson(packer::McOptions& o, const nlohmann::json& j) {
+    o.voxelSizeMm = j.at("voxel_size_mm").get<double>();
+    o.count = j.at("count").get<std::int64_t>();
+    o.fillHeightMm = j.at("fill_height_mm").get<double>();
+    o.supersample = j.at("supersample").get<int>();
+    o.reboundProbability = j.at("rebound_probability").get<double>();
+    o.rotationProbability = j.at("rotation_probability").get<double>();
+    o.maxRotationDeg = j.at("max_rotation_deg").get<double>();
+    o.maxSweeps = j.at("max_sweeps").get<std::int64_t>();
+    o.settleSweeps = j.at("settle_sweeps").get<int>();
+    o.settleTolerance = j.at("settle_tolerance").get<double>();
+    o.settleMaxFallDiameters = j.at("settle_max_fall_diameters").get<double>();
+    o.injectAttempts = j.at("inject_attempts").get<int>();
+    o.tapCycles = j.at("tap_cycles").get<int>();
+    o.tapReboundProbability = j.at("tap_rebound_probability").get<double>();
+    o.tapSweeps = j.at("tap_sweeps").get<int>();
+  }
+
   static void set(packer::McOptions& o, const McKey& key, double v, const std::string& where) {
     if (!std::isfinite(v)) throw InputError(where + " must be a finite number");
     if (key.kind == McKey::Real) {
@@ -142,7 +197,8 @@ class McMode final : public PackMode {
     if (v != std::floor(v) || std::fabs(v) > 9.0e15)
       throw InputError(where + " must be an integer");
     if (key.integer) {
-      if (std::fabs(v) > 2.0e9) throw InputError(where + " is out of range");
+      if (std::fabs(v) > 2.0e9)
+        throw InputError(where + " is out of range (|value| <= 2000000000)");
       o.*key.integer = static_cast<int>(v);
     } else {
       o.*key.integer64 = static_cast<std::int64_t>(v);

@@ -4,13 +4,14 @@
 /// modes (pack_mc.cpp, pack_dem.cpp). Each mode registers its own flags and reads its
 /// own table of the TOML scene file ([mc] / [dem]); flags win over the file.
 
+#include <toml++/toml.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
-#include <toml++/toml.h>
 #include <vector>
 
 #include "command.hpp"
@@ -40,7 +41,13 @@ struct PackScene {
   std::filesystem::path resume;       ///< --resume FILE: continue from a checkpoint
   std::filesystem::path from;         ///< --from BED.h5: continue from an existing bed
   bool checkOnly = false;             ///< --check: validate everything, print, pack nothing
+  nlohmann::json resumeState;         ///< the mode's state read from --resume (null = none)
 };
+
+/// Writes the checkpoint file of `scene` (JSON: format "voxpack-checkpoint", version 1,
+/// the mode, the scene, the mode's `state`) atomically to scene.checkpoint.
+void writeCheckpointFile(const PackScene& scene, const std::string& mode,
+                         const nlohmann::json& state);
 
 /// Flags and TOML keys of one packing mode.
 class PackMode {
