@@ -9,6 +9,7 @@
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/parallel.hpp"
 #include "voxpack/core/progress.hpp"
 #include "voxpack/core/version.hpp"
@@ -46,7 +47,22 @@ class IngestCommand final : public Command {
                    "auto (phantom header, else dark)")
         ->check(CLI::IsMember({"auto", "bright", "dark"}))
         ->capture_default_str();
-    sub.add_option("--threshold", threshold_, "otsu, kmeans, or an intensity value")
+    sub.add_option("--threshold", threshold_,
+                   "auto (volume when two phases are clear, else otsu), volume (reproduces the "
+                   "mean-intensity porosity), otsu, kmeans, or an intensity value")
+        ->capture_default_str();
+    sub.add_option("--noise", noise_,
+                   "noise model of the phase-level fit: auto (rician when the void is bright), "
+                   "gaussian, rician")
+        ->check(CLI::IsMember({"auto", "gaussian", "rician"}))
+        ->capture_default_str();
+    sub.add_flag("!--no-refine-column", o_.refineColumn,
+                 "keep the voxel-level circle fit (no sub-voxel fit on the grey wall step)");
+    sub.add_option("--calibrate", o_.calibrationRuns,
+                   "error budget: re-image the ingested bed N times (1..50) at the measured SNR, "
+                   "blur and voxel size and report the density bias (provenance \"calibration\")")
+        ->capture_default_str();
+    sub.add_option("--calibrate-seed", o_.calibrationSeed, "first phantom seed of --calibrate")
         ->capture_default_str();
     sub.add_option("--column", column_, "auto, none, or CX,CY,R in mm (vertical axis)")
         ->capture_default_str();
@@ -101,7 +117,17 @@ class IngestCommand final : public Command {
                  : denoise_ == "curvature"  ? DenoiseMethod::Curvature
                                             : DenoiseMethod::None;
     o_.n4 = bias_ == "n4";
-    if (threshold_ == "otsu") {
+    o_.noise = noise_ == "rician"     ? NoiseChoice::Rician
+               : noise_ == "gaussian" ? NoiseChoice::Gaussian
+                                      : NoiseChoice::Auto;
+    if (o_.calibrationRuns < 0 || o_.calibrationRuns > 50)
+      throw UsageError("--calibrate " + std::to_string(o_.calibrationRuns) +
+                       ": the number of runs must be 1..50");
+    if (threshold_ == "auto") {
+      o_.threshold = ThresholdMethod::Auto;
+    } else if (threshold_ == "volume") {
+      o_.threshold = ThresholdMethod::Volume;
+    } else if (threshold_ == "otsu") {
       o_.threshold = ThresholdMethod::Otsu;
     } else if (threshold_ == "kmeans") {
       o_.threshold = ThresholdMethod::KMeans;
@@ -127,6 +153,16 @@ class IngestCommand final : public Command {
     }
     const fs::path out = output_;
     ensureWritableDirectory(out.has_parent_path() ? out.parent_path() : fs::path("."), false);
+    // Refuse before the voxels are read when the pipeline would not fit in the budget.
+    o_.read.beforeAllocate = [this, &global](const Lattice& l) {
+      const std::string what = "ingest of " + input_ + " (" + std::to_string(l.dims[0]) + " x " +
+                               std::to_string(l.dims[1]) + " x " + std::to_string(l.dims[2]) +
+                               " voxels)";
+      checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
+                      static_cast<std::uint64_t>(l.dims[2]), 64},
+                     what);
+      requireWithinBudget(estimateIngestPeakBytes(l, o_), global.memory, what);
+    };
     CommandProgress progress(global);
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
@@ -143,19 +179,24 @@ class IngestCommand final : public Command {
                 << (r.voidBright ? "void bright" : "void dark") << "), porosity "
                 << r.report["porosity"].dump();
       if (r.column.found)
-        std::cout << ", column radius " << r.column.radiusMm << " mm at (" << r.column.axisXMm
-                  << ", " << r.column.axisYMm << ")";
+        std::cout << ", column radius " << r.column.radiusMm << " +- " << r.column.radiusStdMm
+                  << " mm at (" << r.column.axisXMm << ", " << r.column.axisYMm << ")";
       else
         std::cout << ", no column mask";
       std::cout << '\n';
+      if (r.report.contains("calibration")) {
+        const auto& c = r.report["calibration"];
+        std::cout << "calibration: expected density bias " << c["density_bias"].dump() << " +- "
+                  << c["density_bias_std"].dump() << " (" << c["n"].dump() << " phantoms)\n";
+      }
     }
     return 0;
   }
 
  private:
   std::string input_, output_;
-  std::string void_ = "auto", threshold_ = "otsu", column_ = "auto", denoise_ = "median",
-              bias_ = "none";
+  std::string void_ = "auto", threshold_ = "auto", column_ = "auto", denoise_ = "median",
+              bias_ = "none", noise_ = "auto";
   bool json_ = false;
   IngestOptions o_;
 };

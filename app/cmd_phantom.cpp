@@ -6,6 +6,7 @@
 #include "command.hpp"
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/parallel.hpp"
 #include "voxpack/core/progress.hpp"
 #include "voxpack/core/version.hpp"
@@ -59,6 +60,9 @@ class PhantomCommand final : public Command {
     const PixelType type = parsePixelType(pixel_);
     const fs::path out = output_;
     const Bed bed = readBed(input_);
+    // Refuse unbounded settings before any work: the blur limit and the memory estimate.
+    if (o_.blurMm > 0.0) requireBlurWithinLimit(o_.blurMm, bed.lattice());
+    requireWithinBudget(estimatePhantomPeakBytes(bed, o_), global.memory, "phantom of " + input_);
     CommandProgress progress(global);
     const Grid<float> img = makePhantom(bed, o_, resolveThreads(global.threads), progress);
     std::ostringstream snr;

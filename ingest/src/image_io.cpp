@@ -117,7 +117,15 @@ std::string sizeText(std::size_t nx, std::size_t ny) {
   return std::to_string(nx) + " x " + std::to_string(ny);
 }
 
-Volume readSingleFile(const fs::path& file, Progress& progress) {
+Lattice headerLattice(const bridge::Header& h, std::size_t slices) {
+  Lattice l;
+  l.dims = {static_cast<std::int64_t>(slices), static_cast<std::int64_t>(h.size[1]),
+            static_cast<std::int64_t>(h.size[0])};
+  l.spacingMm = {h.spacing[2], h.spacing[1], h.spacing[0]};
+  return l;
+}
+
+Volume readSingleFile(const fs::path& file, const ReadOptions& options, Progress& progress) {
   if (lower(file.extension().string()) == ".mhd") checkMetaImageHeader(file);
   const bridge::Header h = bridge::readHeader(file.string());
   if (h.metadata.count("voxpack_components"))
@@ -129,6 +137,7 @@ Volume readSingleFile(const fs::path& file, Progress& progress) {
   if (h.dimensions > 3 && h.size[3] > 1)
     throw FormatError(file.string() + ": is a " + std::to_string(h.dimensions) +
                       "-D image; only 3-D volumes are read");
+  if (options.beforeAllocate) options.beforeAllocate(headerLattice(h, h.size[2]));
   progress.report("read", 0.0);
   Volume v;
   v.image = toGrid(bridge::readFile(file.string()));
@@ -141,7 +150,8 @@ Volume readSingleFile(const fs::path& file, Progress& progress) {
   return v;
 }
 
-Volume readSliceSeries(const fs::path& dir, std::vector<fs::path> files, Progress& progress) {
+Volume readSliceSeries(const fs::path& dir, std::vector<fs::path> files, const ReadOptions& options,
+                       Progress& progress) {
   files = numericOrder(std::move(files));
   const bridge::Header first = bridge::readHeader(files.front().string());
   if (first.dimensions > 2 && first.size[2] > 1)
@@ -154,6 +164,7 @@ Volume readSliceSeries(const fs::path& dir, std::vector<fs::path> files, Progres
   // Slices carry no z spacing: assume the in-plane pixel pitch (the user can override).
   l.spacingMm = {first.spacing[0], first.spacing[1], first.spacing[0]};
   l.originMm = {0.0, first.origin[1], first.origin[0]};
+  if (options.beforeAllocate) options.beforeAllocate(l);
   Volume v;
   v.image = Grid<float>(l);
   for (std::size_t k = 0; k < files.size(); ++k) {
@@ -176,9 +187,9 @@ Volume readSliceSeries(const fs::path& dir, std::vector<fs::path> files, Progres
   return v;
 }
 
-Volume readFolder(const fs::path& dir, Progress& progress) {
+Volume readFolder(const fs::path& dir, const ReadOptions& options, Progress& progress) {
   if (fs::exists(dir / "2dseq")) {
-    Volume v = readSingleFile(dir / "2dseq", progress);
+    Volume v = readSingleFile(dir / "2dseq", options, progress);
     v.info.source = "bruker-2dseq";
     return v;
   }
@@ -201,6 +212,7 @@ Volume readFolder(const fs::path& dir, Progress& progress) {
         toGrid(bridge::readDicomSeries(dir.string(), v.info.files, v.info.componentType, series));
     v.info.source = "dicom-series";
     v.info.imageIO = "GDCMImageIO";
+    if (options.beforeAllocate) options.beforeAllocate(v.image.lattice());
     if (series > 1)
       progress.message("warning: " + dir.string() + " holds " + std::to_string(series) +
                        " DICOM series; read the first");
@@ -210,7 +222,7 @@ Volume readFolder(const fs::path& dir, Progress& progress) {
     throw FormatError(dir.string() + ": the folder holds no image slices (.tif, .png, ...)");
   if (images.size() < 2)
     throw FormatError(dir.string() + ": the folder holds one slice (a 2-D image)");
-  return readSliceSeries(dir, images, progress);
+  return readSliceSeries(dir, images, options, progress);
 }
 
 }  // namespace
@@ -259,9 +271,9 @@ Volume readVolume(const fs::path& input, const ReadOptions& options, Progress& p
   if (!fs::exists(input, ec)) throw IoError(input.string() + ": no such file or folder");
   Volume v;
   if (fs::is_directory(input, ec)) {
-    v = readFolder(input, progress);
+    v = readFolder(input, options, progress);
   } else {
-    v = readSingleFile(input, progress);
+    v = readSingleFile(input, options, progress);
     if (input.filename() == "2dseq") v.info.source = "bruker-2dseq";
   }
   if (options.voxelSizeMm > 0.0) {

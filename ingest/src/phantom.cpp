@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <sstream>
 #include <vector>
 
 #include "voxpack/core/errors.hpp"
@@ -64,6 +65,31 @@ void blurAxis(Grid<float>& g, int axis, double sigmaVox, int threads) {
 
 }  // namespace
 
+double maxBlurMm(const Lattice& l) {
+  return kMaxBlurVoxels * std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
+}
+
+void requireBlurWithinLimit(double sigmaMm, const Lattice& l) {
+  // The kernel spans 3 sigma each side: beyond 50 voxels the cost grows without bound
+  // while the image is a flat grey long before.
+  if (sigmaMm > maxBlurMm(l)) {
+    std::ostringstream m;
+    m << "--blur-mm " << sigmaMm << ": must be at most " << maxBlurMm(l) << " mm ("
+      << kMaxBlurVoxels << " voxels of this lattice)";
+    throw UsageError(m.str());
+  }
+}
+
+std::uint64_t estimatePhantomPeakBytes(const Bed& bed, const PhantomOptions& o) {
+  const auto n = static_cast<std::uint64_t>(bed.lattice().size());
+  std::uint64_t out = n;
+  if (o.voxelSizeMm > 0.0)
+    out = static_cast<std::uint64_t>(resampledLattice(bed.lattice(), o.voxelSizeMm).size());
+  // Image and bias field on the bed lattice, the resampled image, and the writer's
+  // converted copy plus ITK's buffer (4 + 4 B per output voxel).
+  return 4 * n + (o.biasFraction > 0.0 ? 4 * n : 0) + (o.voxelSizeMm > 0.0 ? 4 * out : 0) + 8 * out;
+}
+
 PhantomLevels phantomLevels(Modality m) {
   // Arbitrary units chosen to fit uint16 output. MRI: only water gives signal. XMT: air
   // (pores and outside) attenuates least, the glass wall a little less than the pellets.
@@ -74,6 +100,7 @@ PhantomLevels phantomLevels(Modality m) {
 void gaussianBlur(Grid<float>& image, double sigmaMm, int threads) {
   if (!(sigmaMm >= 0.0) || !std::isfinite(sigmaMm)) throw UsageError("--blur-mm must be >= 0");
   if (sigmaMm == 0.0) return;
+  requireBlurWithinLimit(sigmaMm, image.lattice());
   for (int a = 0; a < 3; ++a) blurAxis(image, a, sigmaMm / image.lattice().spacingMm[a], threads);
 }
 
@@ -83,7 +110,21 @@ Grid<float> makePhantom(const Bed& bed, const PhantomOptions& o, int threads, Pr
     throw UsageError("--bias must be in [0, 1) (0.2 = gain varies by +-20 %)");
   if (!(o.voxelSizeMm >= 0.0) || !std::isfinite(o.voxelSizeMm))
     throw UsageError("--voxel-size must be > 0");
-  if (!(o.wallThicknessMm >= 0.0)) throw UsageError("wall thickness must be >= 0");
+  if (!(o.wallThicknessMm >= 0.0) || !std::isfinite(o.wallThicknessMm))
+    throw UsageError("--wall-mm must be >= 0");
+  {
+    // A wall wider than the box adds nothing, and its stamp grows with its square.
+    const Lattice& bl = bed.lattice();
+    const double widthMm = std::max(static_cast<double>(bl.nx()) * bl.spacingMm[2],
+                                    static_cast<double>(bl.ny()) * bl.spacingMm[1]);
+    if (o.wallThicknessMm > widthMm) {
+      std::ostringstream m;
+      m << "--wall-mm " << o.wallThicknessMm << ": must be at most the box width, " << widthMm
+        << " mm";
+      throw UsageError(m.str());
+    }
+    if (o.blurMm > 0.0) requireBlurWithinLimit(o.blurMm, bl);
+  }
   const Lattice& l = bed.lattice();
   const PhantomLevels lv = phantomLevels(o.modality);
   Grid<float> img(l, lv.outsideLevel);

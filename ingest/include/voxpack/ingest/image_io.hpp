@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -24,6 +25,9 @@ PixelType parsePixelType(const std::string& name);
 /// Options of readVolume.
 struct ReadOptions {
   double voxelSizeMm = 0.0;  ///< > 0: isotropic spacing in mm that overrides the file's; 0 = keep
+  /// Called with the volume's lattice once the header is read, before the voxels are
+  /// (DICOM series: after reading); throw to refuse (e.g. a memory budget check).
+  std::function<void(const Lattice&)> beforeAllocate = {};
 };
 
 /// What was read and how.

@@ -1,17 +1,21 @@
 #pragma once
 /// \file ingest.hpp
-/// The ingest pipeline: read -> denoise -> bias correction -> resample -> threshold ->
-/// clean-up -> column fit and mask -> optional labels, with a provenance record.
+/// The ingest pipeline: read -> denoise -> bias correction -> resample -> preliminary
+/// threshold -> column fit (sub-voxel, on the grey wall step) -> phase levels and the
+/// mean-intensity void fraction -> volume-preserving threshold -> clean-up -> mask ->
+/// optional labels and calibration, with a provenance record (docs/ingest.md).
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "voxpack/core/bed.hpp"
+#include "voxpack/core/memory.hpp"
 #include "voxpack/core/progress.hpp"
 #include "voxpack/ingest/column.hpp"
 #include "voxpack/ingest/filters.hpp"
 #include "voxpack/ingest/image_io.hpp"
+#include "voxpack/ingest/phases.hpp"
 
 namespace voxpack::ingest {
 
@@ -19,8 +23,11 @@ namespace voxpack::ingest {
 enum class VoidPolarity { Auto, Bright, Dark };
 /// Denoising before thresholding.
 enum class DenoiseMethod { None, Median, MedianBox, Curvature };
-/// How the threshold is chosen.
-enum class ThresholdMethod { Otsu, KMeans, Manual };
+/// How the threshold is chosen. Auto: Volume when the histogram shows two clear phases,
+/// else Otsu. Volume: the threshold that reproduces the mean-intensity void fraction.
+enum class ThresholdMethod { Auto, Volume, Otsu, KMeans, Manual };
+/// Noise model of the phase-level fit: Auto = Rician when the void is bright (MRI).
+enum class NoiseChoice { Auto, Gaussian, Rician };
 /// How the column (mask) is obtained.
 enum class ColumnMode { Auto, None, Explicit };
 
@@ -34,16 +41,33 @@ struct IngestOptions {
   bool n4 = false;                                 ///< N4 bias correction (MRI)
   N4Options n4Options;                             ///< for n4
   double resampleMm = 0.0;                         ///< > 0: resample onto this isotropic voxel
-  ThresholdMethod threshold = ThresholdMethod::Otsu;  ///< threshold choice
+  ThresholdMethod threshold = ThresholdMethod::Auto;  ///< threshold choice
+  NoiseChoice noise = NoiseChoice::Auto;              ///< noise model of the level fit
   double thresholdValue = 0.0;                        ///< for Manual, in image intensity units
   std::size_t maxSpeckVoxels = 8;        ///< solid components this small become void (0 = keep)
   std::size_t maxHoleVoxels = 8;         ///< void components this small become solid (0 = keep)
   ColumnMode column = ColumnMode::Auto;  ///< column detection
   double columnXMm = 0.0, columnYMm = 0.0, columnRadiusMm = 0.0;  ///< for Explicit, mm
   ColumnFitOptions columnFit;                                     ///< for Auto
+  bool refineColumn = true;             ///< Auto: refine the fit on the grey wall step (sub-voxel)
   bool labels = false;                  ///< distance-map watershed particle labels
   double labelMarkerDepthVoxels = 1.0;  ///< watershed marker depth, voxels, >= 0
+  int calibrationRuns = 0;              ///< > 0: calibrate the density bias with this many phantoms
+  std::uint64_t calibrationSeed = 1;    ///< first phantom seed of the calibration
 };
+
+/// Image quality read from the input (all NaN/0 when not measurable).
+struct ImageQuality {
+  double noiseSigma = 0;         ///< noise sigma in image units (bright peak's outer flank)
+  double snr = 0;                ///< phase contrast (noise-free signals) / noise sigma
+  double blurMm = 0;             ///< Gaussian sigma of the wall's edge-spread function, mm
+  bool blurMeasured = false;     ///< false when no wall was seen (blurMm unknown)
+  double voxelMm = 0;            ///< in-plane voxel size, mm
+  double voxelsPerDiameter = 0;  ///< sphere-equivalent particle diameter 6V/S in voxels
+};
+
+/// Peak memory of the pipeline on an input of `input` voxels, bytes (before reading).
+std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& options);
 
 /// A segmented bed and the record of how it was made.
 struct IngestResult {
@@ -51,6 +75,7 @@ struct IngestResult {
   double thresholdUsed = 0;  ///< in image intensity units (after denoise/bias correction)
   bool voidBright = false;   ///< polarity used
   ColumnFit column;          ///< the column used (found = false: no mask)
+  ImageQuality quality;      ///< measured image quality
   nlohmann::json report;     ///< same as bed.provenance["ingest"]
 };
 
@@ -61,5 +86,23 @@ IngestResult ingestVolume(const std::filesystem::path& input, const IngestOption
 /// Runs the pipeline after reading (for callers that already hold a volume).
 IngestResult segmentVolume(Volume volume, const IngestOptions& options, int threads,
                            Progress& progress = nullProgress());
+
+/// Expected density bias of this segmentation: the ingested bed itself is imaged by
+/// `makePhantom` at the measured SNR, blur and voxel size (its mask as the column, wall
+/// of the measured thickness), segmented with the same options, and compared with itself
+/// over its packed slices. Runs options.calibrationRuns phantoms; the result is the
+/// provenance object "calibration".
+nlohmann::json calibrateDensityBias(const IngestResult& result, const IngestOptions& options,
+                                    int threads, Progress& progress = nullProgress());
+
+/// Packing density of `bed` over its packed slices: slices whose solid share in the mask
+/// is at least half the largest slice's (the headspace above a bed is left out). NaN when
+/// the mask is empty.
+double packedRegionDensity(const Bed& bed, std::int64_t* firstSlice = nullptr,
+                           std::int64_t* lastSlice = nullptr);
+
+/// Sphere-equivalent particle diameter 6V/S in voxels = 1.5 x the mean solid chord along
+/// x, y, z inside `region` (null: everywhere); 0 when there is no solid chord.
+double voxelsPerDiameter(const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* region);
 
 }  // namespace voxpack::ingest

@@ -41,6 +41,18 @@ PhantomLevels phantomLevels(Modality modality);
 Grid<float> makePhantom(const Bed& bed, const PhantomOptions& options, int threads,
                         Progress& progress = nullProgress());
 
+/// Largest phantom blur sigma, in voxels of the finest axis.
+inline constexpr double kMaxBlurVoxels = 50.0;
+
+/// Largest blur sigma in mm on lattice `l` (kMaxBlurVoxels x the smallest spacing).
+double maxBlurMm(const Lattice& l);
+
+/// Throws UsageError naming --blur-mm and the limit when sigmaMm > maxBlurMm(l).
+void requireBlurWithinLimit(double sigmaMm, const Lattice& l);
+
+/// Bytes makePhantom needs at its peak for `bed` (image, bias field, resampled copy).
+std::uint64_t estimatePhantomPeakBytes(const Bed& bed, const PhantomOptions& options);
+
 /// Separable Gaussian blur with sigma in mm (per-axis sigma / spacing voxels), edges clamped.
 void gaussianBlur(Grid<float>& image, double sigmaMm, int threads);
 

@@ -1,0 +1,75 @@
+#pragma once
+/// \file phases.hpp
+/// Two-phase statistics of a grey volume: noise sigma and phase levels fitted from the
+/// histogram (Gaussian or Rician peaks), the void fraction from the mean intensity (blur
+/// preserves it), and the threshold that reproduces that void fraction. Derivation in
+/// docs/ingest.md ("Volume-preserving threshold").
+
+#include <cstdint>
+#include <string>
+
+#include "voxpack/core/grid.hpp"
+
+namespace voxpack::ingest {
+
+/// Noise of the image: Gaussian (XMT, CT) or Rician (MRI magnitude).
+enum class NoiseModel { Gaussian, Rician };
+
+/// Phase levels of a two-phase image, fitted from its histogram.
+struct PhaseLevels {
+  bool clear = false;  ///< two peaks >= 3 noise sigma apart, each >= 0.5 % of the voxels
+  NoiseModel model = NoiseModel::Gaussian;  ///< noise model used for the fit
+  double voidLevel = 0.0;                   ///< mean reading of a pure void voxel (image units)
+  double solidLevel = 0.0;                  ///< mean reading of a pure solid voxel (image units)
+  double voidSignal = 0.0;                  ///< noise-free void signal (Rician: below voidLevel)
+  double solidSignal = 0.0;                 ///< noise-free solid signal (Rician: 0 for no signal)
+  double noiseSigma = 0.0;                  ///< noise sigma (Gaussian sd; Rician: of each channel)
+  std::string note;  ///< how the levels were found, or why they are not clear
+};
+
+/// Fits the levels from the values of `image` where `region` != 0 (null: everywhere).
+/// The noise sigma comes from the outer flank of the bright peak (a homogeneous phase:
+/// no partial-volume voxel lies beyond it).
+PhaseLevels fitPhaseLevels(const Grid<float>& image, const Grid<std::uint8_t>* region,
+                           bool voidBright, NoiseModel model);
+
+/// Mean of a Rician variable of signal `a` and channel sigma `sigma`.
+double ricianMean(double a, double sigma);
+
+/// Excess void volume per unit surface (in voxels) that the mean-intensity estimator
+/// reads at a planar solid/void interface blurred by a Gaussian of `blurVoxels`: 0 for
+/// Gaussian noise (the mean is linear), negative for Rician (its mean is convex in the
+/// signal near zero).
+double meanEstimatorEdgeBiasVoxels(const PhaseLevels& levels, double blurVoxels);
+
+/// Interface area per unit volume (1/voxel) of the two-phase `indicator` inside `region`
+/// by stereology, S_V = 2 P_L, with P_L the phase changes per voxel length along x, y, z.
+double surfaceDensityPerVoxel(const Grid<std::uint8_t>& indicator,
+                              const Grid<std::uint8_t>* region);
+
+/// The void fraction from the mean intensity and how it was corrected.
+struct MeanVoidFraction {
+  double meanIntensity = 0.0;    ///< <I> over the region
+  double raw = 0.0;              ///< (<I> - I_solid) / (I_void - I_solid)
+  double edgeBiasVoxels = 0.0;   ///< meanEstimatorEdgeBiasVoxels
+  double surfacePerVoxel = 0.0;  ///< S_V used for the correction
+  double phi = 0.0;              ///< raw - edgeBias * S_V, clamped to [0, 1]
+  std::size_t voxels = 0;        ///< voxels in the region
+};
+
+/// phi_void from the mean of `image` over `region`, corrected for the Rician edge bias
+/// with the interface density of `indicator` (any rough segmentation of the same image).
+MeanVoidFraction meanVoidFraction(const Grid<float>& image, const Grid<std::uint8_t>* region,
+                                  const PhaseLevels& levels, double blurVoxels,
+                                  const Grid<std::uint8_t>& indicator);
+
+/// The threshold at which the void fraction of `image` over `region` is `phi`
+/// (void = value > t when voidBright, value <= t otherwise): midway between the two
+/// order statistics that bracket the target count.
+double volumeThreshold(const Grid<float>& image, const Grid<std::uint8_t>* region, double phi,
+                       bool voidBright);
+
+/// Void fraction of `indicator` over `region` (null: everywhere); NaN for an empty region.
+double regionVoidFraction(const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* region);
+
+}  // namespace voxpack::ingest

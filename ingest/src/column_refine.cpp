@@ -1,0 +1,369 @@
+// Sub-voxel column refinement from the grey-level step at the wall (edge-spread fit);
+// derivation in docs/ingest.md ("Column fit").
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+#include "voxpack/core/errors.hpp"
+#include "voxpack/ingest/column.hpp"
+
+namespace voxpack::ingest {
+namespace {
+
+constexpr double kBin = 0.1;  // radial bin, voxels
+// Thinnest wall the fit may use, voxels: a thinner "wall" term would fit the void-rich
+// ring just inside the wall instead of the wall.
+constexpr double kMinWall = 2.5;
+
+double cdf(double x) { return 0.5 * std::erfc(-x / std::numbers::sqrt2); }
+double pdf(double x) { return std::exp(-0.5 * x * x) / std::sqrt(2.0 * std::numbers::pi); }
+
+// Radial profile: per bin of u = r - R0 (voxels), the sum of values and the count.
+struct Profile {
+  double u0 = 0;
+  std::vector<double> sum, count;
+  double sc = 0, ss = 0;  // sum of cos / sin of the sample angles (sector direction)
+  void init(double from, double to) {
+    u0 = from;
+    const auto n = static_cast<std::size_t>(std::ceil((to - from) / kBin));
+    sum.assign(n, 0.0);
+    count.assign(n, 0.0);
+  }
+  void add(const Profile& o) {
+    for (std::size_t b = 0; b < sum.size(); ++b) {
+      sum[b] += o.sum[b];
+      count[b] += o.count[b];
+    }
+  }
+  double samples() const {
+    double c = 0;
+    for (double x : count) c += x;
+    return c;
+  }
+};
+
+struct Edge {
+  double r = 0, sigma = 1, wall = 4;  // step position (voxels from R0), blur, wall thickness
+  double coef[4] = {0, 0, 0, 0};      // inside level, inside slope, wall level, outside level
+  double sse = 1e300, weight = 0;
+};
+
+// The profile of a blurred cylinder wall: bed (level + slope towards the axis) up to r,
+// wall from r to r + T, outside beyond, all convolved with a Gaussian of sigma (the
+// slope term integrates in closed form). Linear in the four levels: solved exactly for
+// each (r, sigma, T).
+void basis(double u, double r, double s, double t, double b[4]) {
+  const double in = cdf((r - u) / s);
+  b[0] = in;
+  b[1] = (u - r) * in - s * pdf((u - r) / s);
+  b[2] = cdf((u - r) / s) - cdf((u - r - t) / s);
+  b[3] = cdf((u - r - t) / s);
+}
+
+double solveLevels(const Profile& p, double r, double s, double t, double coef[4]) {
+  double m[4][5] = {};
+  for (std::size_t k = 0; k < p.sum.size(); ++k) {
+    const double w = p.count[k];
+    if (w <= 0) continue;
+    const double y = p.sum[k] / w, u = p.u0 + (static_cast<double>(k) + 0.5) * kBin;
+    double b[4];
+    basis(u, r, s, t, b);
+    for (int a = 0; a < 4; ++a) {
+      m[a][4] += w * b[a] * y;
+      for (int c = 0; c < 4; ++c) m[a][c] += w * b[a] * b[c];
+    }
+  }
+  // A light ridge: the wall and outside levels are one and the same in MRI.
+  const double ridge = 1e-9 * (m[0][0] + m[1][1] + m[2][2] + m[3][3]) + 1e-300;
+  for (int a = 0; a < 4; ++a) m[a][a] += ridge;
+  for (int c = 0; c < 4; ++c) {
+    int piv = c;
+    for (int a = c + 1; a < 4; ++a)
+      if (std::abs(m[a][c]) > std::abs(m[piv][c])) piv = a;
+    for (int q = 0; q < 5; ++q) std::swap(m[c][q], m[piv][q]);
+    if (!(std::abs(m[c][c]) > 0)) return 1e300;
+    for (int a = 0; a < 4; ++a) {
+      if (a == c) continue;
+      const double f = m[a][c] / m[c][c];
+      for (int q = c; q < 5; ++q) m[a][q] -= f * m[c][q];
+    }
+  }
+  for (int a = 0; a < 4; ++a) coef[a] = m[a][4] / m[a][a];
+  double sse = 0;
+  for (std::size_t k = 0; k < p.sum.size(); ++k) {
+    const double w = p.count[k];
+    if (w <= 0) continue;
+    const double y = p.sum[k] / w, u = p.u0 + (static_cast<double>(k) + 0.5) * kBin;
+    double b[4];
+    basis(u, r, s, t, b);
+    double f = 0;
+    for (int a = 0; a < 4; ++a) f += coef[a] * b[a];
+    sse += w * (y - f) * (y - f);
+  }
+  return sse;
+}
+
+// Grid search, then a finer grid around the best point. sigma / T held when fixed.
+Edge fitEdge(const Profile& p, double rLo, double rHi, const Edge* fixedShape) {
+  Edge best;
+  auto tryPoint = [&](double r, double s, double t) {
+    double coef[4];
+    const double sse = solveLevels(p, r, s, t, coef);
+    if (sse < best.sse) {
+      best.sse = sse;
+      best.r = r;
+      best.sigma = s;
+      best.wall = t;
+      std::copy(coef, coef + 4, best.coef);
+    }
+  };
+  std::vector<double> sg, tg;
+  if (fixedShape) {
+    sg = {fixedShape->sigma};
+    tg = {fixedShape->wall};
+  } else {
+    for (double s = 0.05; s <= 3.0001; s += 0.1) sg.push_back(s);
+    for (double t = kMinWall; t <= 10.0001; t += 0.75) tg.push_back(t);
+  }
+  for (double r = rLo; r <= rHi + 1e-9; r += 0.1)
+    for (double s : sg)
+      for (double t : tg) tryPoint(r, s, t);
+  for (int pass = 0; pass < 2; ++pass) {
+    const double dr = pass == 0 ? 0.02 : 0.004, ds = pass == 0 ? 0.025 : 0.005,
+                 dt = pass == 0 ? 0.15 : 0.03;
+    const Edge c = best;
+    for (int a = -5; a <= 5; ++a)
+      for (int b = fixedShape ? 0 : -4; b <= (fixedShape ? 0 : 4); ++b)
+        for (int q = fixedShape ? 0 : -5; q <= (fixedShape ? 0 : 5); ++q) {
+          const double s = c.sigma + b * ds, t = c.wall + q * dt;
+          if (s < 0.02 || t < kMinWall) continue;
+          tryPoint(c.r + a * dr, s, t);
+        }
+  }
+  best.weight = p.samples();
+  return best;
+}
+
+struct Circle {
+  double cx = 0, cy = 0, r = 0;
+  bool ok = false;
+};
+
+// Least-squares circle (Kasa) through sector edge points, dropping points beyond
+// 3 x 1.4826 MAD (at least 0.3 voxel) in up to four rounds.
+Circle fitCircle(const std::vector<std::array<double, 2>>& pts) {
+  std::vector<std::uint8_t> keep(pts.size(), 1);
+  Circle c;
+  for (int round = 0; round < 4; ++round) {
+    double s[3][4] = {};
+    int n = 0;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      if (!keep[k]) continue;
+      const double x = pts[k][0], y = pts[k][1], row[3] = {x, y, 1.0}, z = -(x * x + y * y);
+      for (int a = 0; a < 3; ++a) {
+        s[a][3] += row[a] * z;
+        for (int b = 0; b < 3; ++b) s[a][b] += row[a] * row[b];
+      }
+      ++n;
+    }
+    if (n < 5) return Circle{};
+    for (int col = 0; col < 3; ++col) {
+      int piv = col;
+      for (int a = col + 1; a < 3; ++a)
+        if (std::abs(s[a][col]) > std::abs(s[piv][col])) piv = a;
+      for (int q = 0; q < 4; ++q) std::swap(s[col][q], s[piv][q]);
+      if (!(std::abs(s[col][col]) > 1e-300)) return Circle{};
+      for (int a = 0; a < 3; ++a) {
+        if (a == col) continue;
+        const double f = s[a][col] / s[col][col];
+        for (int q = col; q < 4; ++q) s[a][q] -= f * s[col][q];
+      }
+    }
+    const double d = s[0][3] / s[0][0], e = s[1][3] / s[1][1], f = s[2][3] / s[2][2];
+    c.cx = -0.5 * d;
+    c.cy = -0.5 * e;
+    const double r2 = c.cx * c.cx + c.cy * c.cy - f;
+    if (!(r2 > 0)) return Circle{};
+    c.r = std::sqrt(r2);
+    c.ok = true;
+    std::vector<double> res;
+    for (std::size_t k = 0; k < pts.size(); ++k)
+      if (keep[k]) res.push_back(std::abs(std::hypot(pts[k][0] - c.cx, pts[k][1] - c.cy) - c.r));
+    std::nth_element(res.begin(), res.begin() + static_cast<std::ptrdiff_t>(res.size() / 2),
+                     res.end());
+    const double cut = std::max(0.3, 3.0 * 1.4826 * res[res.size() / 2]);
+    bool changed = false;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      const bool kp = std::abs(std::hypot(pts[k][0] - c.cx, pts[k][1] - c.cy) - c.r) <= cut;
+      changed |= kp != static_cast<bool>(keep[k]);
+      keep[k] = kp;
+    }
+    if (!changed) break;
+  }
+  return c;
+}
+
+}  // namespace
+
+ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
+                       const ColumnRefineOptions& o) {
+  if (o.slabSlices < 4 || o.sectors < 6 || o.iterations < 1)
+    throw InputError("column refinement: slab >= 4 slices, >= 6 sectors, >= 1 iteration");
+  if (!rough.found) return rough;
+  const Lattice& l = image.lattice();
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  const double sx = l.spacingMm[2], sy = l.spacingMm[1];
+  if (std::abs(sx - sy) > 1e-6 * sx) return rough;  // in-plane pixels must be square
+  const std::int64_t slabs = std::max<std::int64_t>(1, nz / o.slabSlices);
+  ColumnFit fit = rough;
+  double innerW = 4.0;
+  const double outerW = 8.0;
+  for (int iter = 0; iter < o.iterations; ++iter) {
+    const double r0 = fit.radiusMm / sx;
+    if (r0 < innerW + 2) return rough;
+    std::vector<Profile> prof(static_cast<std::size_t>(slabs * o.sectors));
+    for (auto& p : prof) p.init(-innerW, outerW);
+    for (std::int64_t s = 0; s < slabs; ++s) {
+      const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
+      for (std::int64_t k = z0; k < z1; ++k) {
+        const double z = l.originMm[0] + static_cast<double>(k) * l.spacingMm[0];
+        const double ax = (fit.axisXMm + fit.slopeX * (z - fit.zRefMm) - l.originMm[2]) / sx;
+        const double ay = (fit.axisYMm + fit.slopeY * (z - fit.zRefMm) - l.originMm[1]) / sy;
+        const double rOut = r0 + outerW, rIn = r0 - innerW;
+        const auto j0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor(ay - rOut)));
+        const auto j1 = std::min(ny - 1, static_cast<std::int64_t>(std::ceil(ay + rOut)));
+        for (std::int64_t j = j0; j <= j1; ++j) {
+          const double dy = static_cast<double>(j) - ay;
+          const float* row = image.data() + l.offset(k, j, 0);
+          for (std::int64_t i = 0; i < nx; ++i) {
+            const double dx = static_cast<double>(i) - ax;
+            const double r2 = dx * dx + dy * dy;
+            if (r2 < rIn * rIn || r2 >= rOut * rOut) continue;
+            const double r = std::sqrt(r2), u = r - r0;
+            const auto b = static_cast<std::size_t>((u + innerW) / kBin);
+            double th = std::atan2(dy, dx) / (2.0 * std::numbers::pi);
+            if (th < 0) th += 1.0;
+            const auto q =
+                std::min<std::int64_t>(o.sectors - 1, static_cast<std::int64_t>(th * o.sectors));
+            Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
+            if (b >= p.sum.size()) continue;
+            p.sum[b] += row[i];
+            p.count[b] += 1;
+            p.sc += dx / r;
+            p.ss += dy / r;
+          }
+        }
+      }
+    }
+    Profile all;
+    all.init(-innerW, outerW);
+    for (const auto& p : prof) all.add(p);
+    const Edge global = fitEdge(all, -2.0, 2.0, nullptr);
+    // The step must stand out of the noise: bed-side level against the wall level.
+    const double resid = std::sqrt(global.sse / std::max(1.0, global.weight));
+    const double amplitude = std::abs(global.coef[0] - global.coef[2]);
+    if (!(global.weight > 0) || !(amplitude > 0.5 * resid) || global.sigma > 2.95) {
+      ColumnFit r = rough;
+      r.note += "; no clear grey step at the wall, circle fit kept";
+      return r;
+    }
+    // Per slab: an edge per sector (R alone, shape held), a circle through them.
+    std::vector<double> zs, xs, ys, rs;
+    int sectorsUsed = 0;
+    for (std::int64_t s = 0; s < slabs; ++s) {
+      double maxCount = 0;
+      for (int q = 0; q < o.sectors; ++q)
+        maxCount = std::max(maxCount, prof[static_cast<std::size_t>(s * o.sectors + q)].samples());
+      const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
+      const double zMid = l.originMm[0] + 0.5 * static_cast<double>(z0 + z1 - 1) * l.spacingMm[0];
+      const double ax = (fit.axisXMm + fit.slopeX * (zMid - fit.zRefMm) - l.originMm[2]) / sx;
+      const double ay = (fit.axisYMm + fit.slopeY * (zMid - fit.zRefMm) - l.originMm[1]) / sy;
+      std::vector<std::array<double, 2>> pts;
+      std::vector<double> edgeR;
+      for (int q = 0; q < o.sectors; ++q) {
+        const Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
+        // Sectors cut by the field of view hold fewer samples: skip them.
+        if (!(p.samples() >= 0.7 * maxCount) || maxCount <= 0) continue;
+        const Edge e = fitEdge(p, -2.0, 2.0, &global);
+        if (e.r <= -1.99 || e.r >= 1.99) continue;
+        const double norm = std::hypot(p.sc, p.ss);
+        if (!(norm > 0)) continue;
+        pts.push_back({ax + (r0 + e.r) * p.sc / norm, ay + (r0 + e.r) * p.ss / norm});
+        edgeR.push_back(r0 + e.r);
+        ++sectorsUsed;
+      }
+      if (pts.size() < 3) continue;
+      const Circle c = pts.size() >= 6 ? fitCircle(pts) : Circle{};
+      zs.push_back(zMid);
+      if (c.ok && std::abs(c.r - r0) < 2.5) {
+        xs.push_back(l.originMm[2] + c.cx * sx);
+        ys.push_back(l.originMm[1] + c.cy * sy);
+        rs.push_back(c.r * sx);
+      } else {
+        double m = 0;
+        for (double r : edgeR) m += r / static_cast<double>(edgeR.size());
+        xs.push_back(l.originMm[2] + ax * sx);
+        ys.push_back(l.originMm[1] + ay * sy);
+        rs.push_back(m * sx);
+      }
+    }
+    if (rs.empty()) return rough;
+    {
+      double mean = 0;
+      for (double r : rs) mean += r / static_cast<double>(rs.size());
+      if (std::abs(mean - rough.radiusMm) > 1.5 * sx) {
+        ColumnFit r = rough;
+        r.note += "; grey-step fit disagreed with the circle fit by > 1.5 voxels, circle kept";
+        return r;
+      }
+    }
+    const std::size_t m = rs.size();
+    double sw = 0, sz = 0, szz = 0, sxv = 0, syv = 0, szx = 0, szy = 0;
+    for (std::size_t k = 0; k < m; ++k) {
+      const double z = zs[k] - fit.zRefMm;
+      sw += 1;
+      sz += z;
+      szz += z * z;
+      sxv += xs[k];
+      syv += ys[k];
+      szx += z * xs[k];
+      szy += z * ys[k];
+    }
+    const double det = sw * szz - sz * sz;
+    fit.slopeX = fit.slopeY = 0;
+    if (m >= 2 && det > 1e-12) {
+      fit.slopeX = (sw * szx - sz * sxv) / det;
+      fit.slopeY = (sw * szy - sz * syv) / det;
+    }
+    fit.axisXMm = (sxv - fit.slopeX * sz) / sw;
+    fit.axisYMm = (syv - fit.slopeY * sz) / sw;
+    std::vector<double> sorted = rs;
+    std::sort(sorted.begin(), sorted.end());
+    double mean = 0;
+    for (double r : rs) mean += r / static_cast<double>(m);
+    fit.radiusMm = mean;
+    fit.radiusSpreadMm = sorted.back() - sorted.front();
+    double var = 0;
+    for (double r : rs) var += (r - mean) * (r - mean);
+    fit.radiusStdMm = m >= 2 ? std::sqrt(var / static_cast<double>(m - 1) / static_cast<double>(m))
+                             : 0.05 * sx;  // one slab: no scatter to read; a twentieth of a voxel
+    fit.slabs = static_cast<int>(m);
+    fit.sectors = sectorsUsed;
+    fit.blurMm = global.sigma * sx;
+    fit.wallThicknessMm = global.wall * sx;
+    fit.refined = true;
+    innerW = std::clamp(2.5 * global.sigma + 2.0, 3.0, 6.0);
+  }
+  const double rv = fit.radiusMm / sx;
+  const double cx = (fit.axisXMm - l.originMm[2]) / sx, cy = (fit.axisYMm - l.originMm[1]) / sy;
+  fit.touchesBorder = cx - rv < -0.5 || cy - rv < -0.5 || cx + rv > static_cast<double>(nx) - 0.5 ||
+                      cy + rv > static_cast<double>(ny) - 0.5;
+  fit.note = "wall step fitted over " + std::to_string(fit.slabs) + " slab(s), " +
+             std::to_string(fit.sectors) + " sector edges" +
+             (fit.touchesBorder ? ", column cut by the field of view" : "");
+  return fit;
+}
+
+}  // namespace voxpack::ingest

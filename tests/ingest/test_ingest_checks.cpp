@@ -1,0 +1,93 @@
+// Ingest checks that run in seconds (also under the sanitizers): the warning when no
+// column is found, the calibration record in the provenance, and the refusals of unbounded
+// phantom settings and of an ingest past the memory limit (issues 19 and 14).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "cli_runner.hpp"
+#include "sphere_bed.hpp"
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/ingest/image_io.hpp"
+#include "voxpack/ingest/ingest.hpp"
+
+using namespace voxpack;
+using namespace voxpack::ingest;
+using namespace voxpack::test;
+
+TEST(Fidelity, WarnsWhenNoColumnIsFound) {
+  // A box of spheres without a wall (no mask): nothing bounds the bed.
+  TempDir dir;
+  Bed bed = makeSphereBed(48, 30.0, 5.0, 0.2, 3);
+  bed.mask.reset();
+  writeBed(dir / "bed.h5", bed);
+  CliResult r = runVoxpack({"-q", "phantom", (dir / "bed.h5").string(), "--modality", "mri",
+                            "--snr", "10", "--seed", "1", "-o", (dir / "ph.nrrd").string()});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = runVoxpack({"ingest", (dir / "ph.nrrd").string(), "-o", (dir / "seg.h5").string()});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: no column found"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--column CX,CY,R"), std::string::npos) << r.err;
+  EXPECT_FALSE(readBed(dir / "seg.h5").mask.has_value());
+}
+
+TEST(Fidelity, CalibrationBandInTheProvenance) {
+  TempDir dir;
+  writeBed(dir / "bed.h5", makeSphereBed(48, 20.0, 5.0, 0.2, 5));
+  CliResult r =
+      runVoxpack({"-q", "phantom", (dir / "bed.h5").string(), "--modality", "xmt", "--snr", "10",
+                  "--blur-mm", "0.2", "--seed", "2", "-o", (dir / "ph.nrrd").string()});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  r = runVoxpack({"-q", "ingest", (dir / "ph.nrrd").string(), "-o", (dir / "seg.h5").string(),
+                  "--calibrate", "2"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto prov = readBed(dir / "seg.h5").provenance;
+  ASSERT_TRUE(prov.contains("calibration")) << prov.dump(1);
+  const auto& c = prov["calibration"];
+  EXPECT_EQ(c["n"].get<int>(), 2);
+  for (const char* key : {"density_bias", "density_bias_std", "snr", "blur_mm", "voxel_mm"})
+    EXPECT_TRUE(c[key].is_number()) << key << ": " << c.dump(1);
+  EXPECT_LT(std::abs(c["density_bias"].get<double>()), 0.02);
+  EXPECT_NEAR(c["voxel_mm"].get<double>(), 0.2, 1e-9);
+}
+
+TEST(Hardening, HugePhantomBlurIsRefusedInSeconds) {
+  TempDir dir;
+  writeBed(dir / "bed.h5", makeSphereBed(32, 12.0, 3.0, 0.2, 1, 200));
+  for (const std::vector<std::string>& extra : {std::vector<std::string>{"--blur-mm", "1e7"},
+                                                std::vector<std::string>{"--wall-mm", "1e7"}}) {
+    std::vector<std::string> args = {
+        "phantom", (dir / "bed.h5").string(), "--modality", "mri", "--snr", "10", "--seed", "1",
+        "-o",      (dir / "ph.nrrd").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto t0 = std::chrono::steady_clock::now();
+    const CliResult r = runVoxpack(args);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_EQ(countErrorLines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find(extra[0]), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("at most"), std::string::npos) << r.err;
+    EXPECT_LT(s, 10.0);
+    EXPECT_FALSE(std::filesystem::exists(dir / "ph.nrrd"));
+  }
+}
+
+TEST(Hardening, IngestPastTheMemoryLimitIsRefusedWithTheEstimate) {
+  TempDir dir;
+  Grid<float> g(Lattice::isotropic(64, 64, 64, 0.2), 100.0f);
+  for (std::size_t n = 0; n < g.size(); n += 3) g[n] = 900.0f;
+  writeVolume(dir / "v.nrrd", g, PixelType::UInt16);
+  const CliResult r = runVoxpack({"--memory-limit", "2M", "ingest", (dir / "v.nrrd").string(), "-o",
+                                  (dir / "seg.h5").string()});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+  EXPECT_EQ(countErrorLines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("needs about"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("64 x 64 x 64"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "seg.h5"));
+  // The estimate itself: about 29 B per voxel for the default pipeline.
+  IngestOptions o;
+  const auto est = estimateIngestPeakBytes(g.lattice(), o);
+  EXPECT_GE(est, 20u * g.size());
+  EXPECT_LE(est, 64u * g.size());
+}
