@@ -1,0 +1,101 @@
+#pragma once
+// Helpers of the hardening suite: timed CLI runs and runs interrupted by a signal.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli_runner.hpp"
+
+namespace voxpack::test {
+
+/// A CLI run with its wall time.
+struct TimedResult {
+  CliResult cli;       ///< exit code and output
+  double seconds = 0;  ///< wall time
+};
+
+/// runVoxpack with its wall time.
+inline TimedResult runTimed(const std::vector<std::string>& args) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TimedResult r{runVoxpack(args), 0};
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+/// Text of a file ("" when absent).
+inline std::string fileText(const std::filesystem::path& p) {
+  std::ifstream f(p);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+/// What an interrupted run did.
+struct SignalResult {
+  int exitCode = -1;        ///< exit status (128 + signal when killed by it)
+  bool exited = false;      ///< true when the process exited (did not die of the signal)
+  bool wasRunning = false;  ///< the signal arrived while the command was working
+  std::string err;          ///< stderr
+};
+
+/// Starts `voxpack ARGS`, waits until its stderr shows that the work has started (or 2 s),
+/// sends `sig` while it still runs, and waits (at most
+/// `timeoutS` seconds, then SIGKILL) for it to end.
+inline SignalResult runAndSignal(const std::vector<std::string>& args, int sig,
+                                 const std::filesystem::path& errFile, double timeoutS = 60) {
+  SignalResult r;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<std::string> all{VOXPACK_BINARY};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    if (!freopen("/dev/null", "w", stdout) || !freopen(errFile.c_str(), "w", stderr)) _exit(127);
+    execv(VOXPACK_BINARY, argv.data());
+    _exit(127);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  int status = 0;
+  bool done = false;
+  while (elapsed() < timeoutS) {
+    if (waitpid(pid, &status, WNOHANG) == pid) {
+      done = true;
+      break;
+    }
+    // Progress (stderr) shows that the work runs; without a terminal there may be none,
+    // so 2 s after the start count as running too (the handlers are installed first).
+    if (!fileText(errFile).empty() || elapsed() > 2.0) {
+      r.wasRunning = true;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (!done) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    kill(pid, sig);
+    while (elapsed() < timeoutS && waitpid(pid, &status, WNOHANG) != pid)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (elapsed() >= timeoutS) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+    }
+  }
+  r.exited = WIFEXITED(status);
+  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  r.err = fileText(errFile);
+  return r;
+}
+
+}  // namespace voxpack::test
