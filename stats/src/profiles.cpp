@@ -12,7 +12,6 @@ namespace voxpack::stats {
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool inMask(const Bed& bed, std::size_t o) { return !bed.mask || (*bed.mask)[o] != 0; }
 }  // namespace
 
 NormalityTest dagostinoPearson(const std::vector<double>& x) {
@@ -62,31 +61,57 @@ NormalityTest dagostinoPearson(const std::vector<double>& x) {
   return t;
 }
 
+SliceCounts sliceCounts(const Bed& bed) {
+  SliceCounts c;
+  accumulateSliceCounts(c, 0, bed.indicator, bed.mask ? &*bed.mask : nullptr);
+  return c;
+}
+
+void accumulateSliceCounts(SliceCounts& c, std::int64_t z0, const Grid<std::uint8_t>& indicator,
+                           const Grid<std::uint8_t>* mask) {
+  const Lattice& l = indicator.lattice();
+  const std::size_t slice = static_cast<std::size_t>(l.ny() * l.nx());
+  const std::size_t need = static_cast<std::size_t>(z0 + l.nz());
+  if (c.mask.size() < need) {
+    c.mask.resize(need, 0);
+    c.solid.resize(need, 0);
+  }
+  for (std::int64_t k = 0; k < l.nz(); ++k) {
+    const std::size_t base = static_cast<std::size_t>(k) * slice;
+    std::uint64_t m = 0, s = 0;
+    for (std::size_t o = base; o < base + slice; ++o) {
+      if (mask && (*mask)[o] == 0) continue;
+      ++m;
+      s += indicator[o] == 0;
+    }
+    c.mask[static_cast<std::size_t>(z0 + k)] += m;
+    c.solid[static_cast<std::size_t>(z0 + k)] += s;
+  }
+}
+
 AxialProfile axialProfile(const Bed& bed, const AxialOptions& options) {
+  return axialProfile(bed.lattice(), sliceCounts(bed), options);
+}
+
+AxialProfile axialProfile(const Lattice& l, const SliceCounts& counts,
+                          const AxialOptions& options) {
   if (!(options.trimMm >= 0) || !std::isfinite(options.trimMm))
     throw InputError("axial profile: trim must be a finite number of mm >= 0");
   if (options.histogramBins < 1) throw InputError("axial profile: histogram bins must be >= 1");
-  const Lattice& l = bed.lattice();
   const std::int64_t nz = l.nz();
-  const std::size_t slice = static_cast<std::size_t>(l.ny() * l.nx());
+  if (counts.mask.size() != static_cast<std::size_t>(nz) ||
+      counts.solid.size() != counts.mask.size())
+    throw InternalError("axial profile: slice counts do not match the lattice");
   AxialProfile p;
   p.zMmAll.resize(static_cast<std::size_t>(nz));
   p.densityAll.assign(static_cast<std::size_t>(nz), kNaN);
-  std::vector<std::size_t> maskCount(static_cast<std::size_t>(nz), 0),
-      solidCount(static_cast<std::size_t>(nz), 0);
+  const auto& maskCount = counts.mask;
+  const auto& solidCount = counts.solid;
   for (std::int64_t k = 0; k < nz; ++k) {
-    const std::size_t base = static_cast<std::size_t>(k) * slice;
-    std::size_t m = 0, s = 0;
-    for (std::size_t o = base; o < base + slice; ++o) {
-      if (!inMask(bed, o)) continue;
-      ++m;
-      s += bed.indicator[o] == 0;
-    }
     const auto kk = static_cast<std::size_t>(k);
-    maskCount[kk] = m;
-    solidCount[kk] = s;
     p.zMmAll[kk] = l.originMm[0] + static_cast<double>(k) * l.spacingMm[0];
-    if (m > 0) p.densityAll[kk] = static_cast<double>(s) / static_cast<double>(m);
+    if (maskCount[kk] > 0)
+      p.densityAll[kk] = static_cast<double>(solidCount[kk]) / static_cast<double>(maskCount[kk]);
   }
   // The bed spans the slices holding solid; without solid, every slice with mask voxels.
   std::int64_t lo = -1, hi = -1;
@@ -156,7 +181,8 @@ AxialProfile axialProfile(const Bed& bed, const AxialOptions& options) {
   return p;
 }
 
-RadialProfile radialProfile(const Bed& bed, const RadialOptions& options) {
+namespace {
+void checkRadialOptions(const RadialOptions& options) {
   if (options.supersample < 1 || options.supersample > 64)
     throw InputError("radial profile: supersample must be in 1..64");
   if (!std::isfinite(options.binWidthMm) || !std::isfinite(options.radiusMm) ||
@@ -165,25 +191,52 @@ RadialProfile radialProfile(const Bed& bed, const RadialOptions& options) {
   if (options.axisMm &&
       (!std::isfinite((*options.axisMm)[0]) || !std::isfinite((*options.axisMm)[1])))
     throw InputError("radial profile: the axis must be finite");
-  const Lattice& l = bed.lattice();
-  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
-  const double sy = l.spacingMm[1], sx = l.spacingMm[2];
-  const std::int64_t k0 = std::max<std::int64_t>(0, options.firstSlice);
-  const std::int64_t k1 = options.lastSlice < 0 ? nz - 1 : std::min(nz - 1, options.lastSlice);
-  const std::size_t columns = static_cast<std::size_t>(ny * nx);
-  std::vector<double> maskCol(columns, 0.0), solidCol(columns, 0.0);
-  std::size_t slicesWithMask = 0;
+}
+}  // namespace
+
+ColumnCounts::ColumnCounts(std::int64_t ny, std::int64_t nx)
+    : mask(static_cast<std::size_t>(ny * nx), 0.0), solid(mask.size(), 0.0) {}
+
+void accumulateColumnCounts(ColumnCounts& c, std::int64_t z0, const Grid<std::uint8_t>& indicator,
+                            const Grid<std::uint8_t>* mask, std::int64_t firstSlice,
+                            std::int64_t lastSlice) {
+  const Lattice& l = indicator.lattice();
+  const std::size_t columns = static_cast<std::size_t>(l.ny() * l.nx());
+  if (c.mask.size() != columns) throw InternalError("radial profile: column counts mismatch");
+  const std::int64_t k0 = std::max<std::int64_t>(0, firstSlice - z0);
+  const std::int64_t k1 = std::min<std::int64_t>(l.nz() - 1, lastSlice - z0);
   for (std::int64_t k = k0; k <= k1; ++k) {
     bool any = false;
-    for (std::size_t c = 0; c < columns; ++c) {
-      const std::size_t o = static_cast<std::size_t>(k) * columns + c;
-      if (!inMask(bed, o)) continue;
+    for (std::size_t col = 0; col < columns; ++col) {
+      const std::size_t o = static_cast<std::size_t>(k) * columns + col;
+      if (mask && (*mask)[o] == 0) continue;
       any = true;
-      maskCol[c] += 1;
-      solidCol[c] += bed.indicator[o] == 0;
+      c.mask[col] += 1;
+      c.solid[col] += indicator[o] == 0;
     }
-    slicesWithMask += any;
+    c.slicesWithMask += any;
   }
+}
+
+RadialProfile radialProfile(const Bed& bed, const RadialOptions& options) {
+  checkRadialOptions(options);
+  const Lattice& l = bed.lattice();
+  const std::int64_t nz = l.nz();
+  const std::int64_t k0 = std::max<std::int64_t>(0, options.firstSlice);
+  const std::int64_t k1 = options.lastSlice < 0 ? nz - 1 : std::min(nz - 1, options.lastSlice);
+  ColumnCounts c(l.ny(), l.nx());
+  accumulateColumnCounts(c, 0, bed.indicator, bed.mask ? &*bed.mask : nullptr, k0, k1);
+  return radialProfile(l, bed.mask.has_value(), c, options);
+}
+
+RadialProfile radialProfile(const Lattice& l, bool hasMask, const ColumnCounts& counts,
+                            const RadialOptions& options) {
+  checkRadialOptions(options);
+  const std::int64_t ny = l.ny(), nx = l.nx();
+  const double sy = l.spacingMm[1], sx = l.spacingMm[2];
+  const std::vector<double>& maskCol = counts.mask;
+  const std::vector<double>& solidCol = counts.solid;
+  const std::size_t slicesWithMask = counts.slicesWithMask;
   RadialProfile p;
   double total = 0, cx = 0, cy = 0;
   for (std::int64_t j = 0; j < ny; ++j)
@@ -196,7 +249,7 @@ RadialProfile radialProfile(const Bed& bed, const RadialOptions& options) {
     }
   if (options.axisMm) {
     p.axisMm = *options.axisMm;
-  } else if (bed.mask && total > 0) {
+  } else if (hasMask && total > 0) {
     p.axisMm = {cx / total, cy / total};
   } else {
     const Vec3 a = l.centerMm(0, 0, 0), b = l.centerMm(0, ny - 1, nx - 1);
@@ -204,7 +257,7 @@ RadialProfile radialProfile(const Bed& bed, const RadialOptions& options) {
   }
   if (options.radiusMm > 0) {
     p.radiusMm = options.radiusMm;
-  } else if (bed.mask && slicesWithMask > 0) {
+  } else if (hasMask && slicesWithMask > 0) {
     const double area = total * sx * sy / static_cast<double>(slicesWithMask);
     p.radiusMm = std::sqrt(area / std::numbers::pi);
   } else {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <mutex>
+#include <type_traits>
 #include <vector>
 
 #include "voxpack/core/errors.hpp"
@@ -243,6 +244,15 @@ bool isPrism(const Grid<std::uint8_t>& mask) {
   return true;
 }
 
+// Lag sums of 0/1 fields are integers; in double precision the FFT error is far below
+// 0.5 (relative 1e-16 of sums < 2^53), so rounding makes them exact and order-free: the
+// streamed and MPI paths then give bit-identical sums (docs/scale.md).
+template <class R>
+void roundCounts(LagGrid& g) {
+  if constexpr (std::is_same_v<R, double>)
+    for (double& v : g.values) v = std::nearbyint(v);
+}
+
 template <class R>
 std::pair<LagGrid, LagGrid> fftLagGrids(const Grid<std::uint8_t>& indicator,
                                         const Grid<std::uint8_t>* mask, const Dims& maxLag,
@@ -257,6 +267,7 @@ std::pair<LagGrid, LagGrid> fftLagGrids(const Grid<std::uint8_t>& indicator,
   } else {
     num = corr.run([&](std::size_t o) { return ind[o]; });
   }
+  roundCounts<R>(num);
   progress.report("S2", 0.5);
   LagGrid den;
   den.maxLag = maxLag;
@@ -277,12 +288,14 @@ std::pair<LagGrid, LagGrid> fftLagGrids(const Grid<std::uint8_t>& indicator,
     PaddedCorrelator<R> plane({1, dims[1], dims[2]},
                               paddedDims({1, dims[1], dims[2]}, {0, maxLag[1], maxLag[2]}),
                               {0, maxLag[1], maxLag[2]}, threads);
-    const LagGrid slice = plane.run([&](std::size_t o) { return m[o]; });
+    LagGrid slice = plane.run([&](std::size_t o) { return m[o]; });
+    roundCounts<R>(slice);
     fillProduct(slice,
                 [&](std::int64_t dz) { return static_cast<double>(dims[0] - std::abs(dz)); });
   } else if (mask) {
     const std::uint8_t* m = mask->data();
     den = corr.run([&](std::size_t o) { return m[o]; });
+    roundCounts<R>(den);
   } else {
     // Without a mask the pair count is exact: Π (n_a − |h_a|).
     LagGrid plane;
@@ -480,6 +493,132 @@ S2Result twoPointProbabilityDirect(const Grid<std::uint8_t>& indicator,
       }
   S2Result r = reduce(num, den, l, options, h);
   r.paddedDims = n;
+  return r;
+}
+
+Dims s2MaxLag(const Lattice& lattice, const S2Options& options) {
+  return resolveMaxLag(lattice, options);
+}
+
+Dims s2PaddedDims(const Dims& dims, const Dims& maxLag) { return paddedDims(dims, maxLag); }
+
+S2SlabAccumulator::S2SlabAccumulator(const Lattice& lattice, bool hasMask, bool prismMask,
+                                     const S2Options& options)
+    : lattice_(lattice),
+      hasMask_(hasMask),
+      prism_(hasMask && prismMask && options.prismMask),
+      options_(options) {
+  lattice.validate("S2 lattice");
+  if (!std::isfinite(options.maxLagMm)) throw InputError("S2: max lag must be finite");
+  if (!std::isfinite(options.binWidthMm)) throw InputError("S2: bin width must be finite");
+  if (!(options.minPairFraction >= 0 && options.minPairFraction <= 1))
+    throw InputError("S2: min pair fraction must be in [0, 1]");
+  maxLag_ = resolveMaxLag(lattice, options);
+  const std::size_t half =
+      static_cast<std::size_t>((maxLag_[0] + 1) * (2 * maxLag_[1] + 1) * (2 * maxLag_[2] + 1));
+  num_.assign(half, 0.0);
+  if (hasMask_ && !prism_) den_.assign(half, 0.0);
+}
+
+void S2SlabAccumulator::setPrismSlice(const Grid<std::uint8_t>& slice) {
+  if (!prism_) return;
+  const Dims d{1, lattice_.dims[1], lattice_.dims[2]};
+  const Dims h{0, maxLag_[1], maxLag_[2]};
+  const std::uint8_t* m = slice.data();
+  if (options_.precision == FftPrecision::Float) {
+    PaddedCorrelator<float> plane(d, paddedDims(d, h), h, options_.threads);
+    prismPlane_ = plane.run([&](std::size_t o) { return m[o]; }).values;
+  } else {
+    PaddedCorrelator<double> plane(d, paddedDims(d, h), h, options_.threads);
+    LagGrid g = plane.run([&](std::size_t o) { return m[o]; });
+    roundCounts<double>(g);
+    prismPlane_ = std::move(g.values);
+  }
+}
+
+// Adds sign x the h_z >= 0 half of a full lag grid to `dst`.
+void S2SlabAccumulator::addHalf(std::vector<double>& dst, const std::vector<double>& full,
+                                double sign) const {
+  const std::int64_t hz = maxLag_[0];
+  const std::size_t plane = static_cast<std::size_t>((2 * maxLag_[1] + 1) * (2 * maxLag_[2] + 1));
+  const std::size_t offset = static_cast<std::size_t>(hz) * plane;  // dz = 0 in the full grid
+  for (std::size_t n = 0; n < dst.size(); ++n) dst[n] += sign * full[offset + n];
+}
+
+void S2SlabAccumulator::addSlab(std::int64_t z0, std::int64_t z1,
+                                const Grid<std::uint8_t>& indicator,
+                                const Grid<std::uint8_t>* mask) {
+  const Lattice& l = indicator.lattice();
+  const std::int64_t nz = lattice_.dims[0];
+  const std::int64_t expected = std::min(nz, z1 + maxLag_[0]) - z0;
+  if (l.dims[0] != expected || l.dims[1] != lattice_.dims[1] || l.dims[2] != lattice_.dims[2] ||
+      z0 < 0 || z1 <= z0 || z1 > nz)
+    throw InternalError("S2 slab: planes do not match the slab and its halo");
+  if (hasMask_ != (mask != nullptr)) throw InternalError("S2 slab: mask presence differs");
+  const std::int64_t own = z1 - z0, haloPlanes = l.dims[0] - own;
+  const std::size_t sliceSize = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
+  const std::uint8_t* ind = indicator.data();
+  const std::uint8_t* m = mask ? mask->data() : nullptr;
+  // Clamp the lags to what the slab can hold: the lag grid keeps the whole-volume shape.
+  auto run = [&](const Dims& dims, std::size_t first, auto value) -> std::vector<double> {
+    const Dims h = maxLag_;
+    const Dims p = paddedDims(dims, h);
+    for (int a = 0; a < 3; ++a) padded_[a] = std::max(padded_[a], p[a]);
+    if (options_.precision == FftPrecision::Float) {
+      PaddedCorrelator<float> c(dims, p, h, options_.threads);
+      return c.run([&](std::size_t o) { return value(first + o); }).values;
+    }
+    PaddedCorrelator<double> c(dims, p, h, options_.threads);
+    LagGrid g = c.run([&](std::size_t o) { return value(first + o); });
+    roundCounts<double>(g);
+    return std::move(g.values);
+  };
+  const Dims whole{l.dims[0], l.dims[1], l.dims[2]};
+  const Dims halo{haloPlanes, l.dims[1], l.dims[2]};
+  const std::size_t haloFirst = static_cast<std::size_t>(own) * sliceSize;
+  auto numField = [&](std::size_t o) -> std::uint8_t { return m ? (ind[o] & m[o]) : ind[o]; };
+  addHalf(num_, run(whole, 0, numField), 1.0);
+  if (haloPlanes > 0) addHalf(num_, run(halo, haloFirst, numField), -1.0);
+  if (!den_.empty()) {
+    auto maskField = [&](std::size_t o) -> std::uint8_t { return m[o]; };
+    addHalf(den_, run(whole, 0, maskField), 1.0);
+    if (haloPlanes > 0) addHalf(den_, run(halo, haloFirst, maskField), -1.0);
+  }
+}
+
+S2Result S2SlabAccumulator::finish() const {
+  const Dims h = maxLag_;
+  const std::int64_t ly = 2 * h[1] + 1, lx = 2 * h[2] + 1;
+  const std::size_t plane = static_cast<std::size_t>(ly * lx);
+  LagGrid num, den;
+  num.maxLag = den.maxLag = h;
+  num.values.assign(static_cast<std::size_t>(2 * h[0] + 1) * plane, 0.0);
+  den.values.assign(num.values.size(), 0.0);
+  const Dims n = lattice_.dims;
+  std::size_t idx = 0;
+  for (std::int64_t dz = -h[0]; dz <= h[0]; ++dz)
+    for (std::int64_t dy = -h[1]; dy <= h[1]; ++dy)
+      for (std::int64_t dx = -h[2]; dx <= h[2]; ++dx, ++idx) {
+        // C(−h) = C(h): the h_z < 0 half mirrors the half accumulated.
+        const bool up = dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0)));
+        const std::int64_t sz = up ? dz : -dz, sy = up ? dy : -dy, sx = up ? dx : -dx;
+        const std::size_t half =
+            static_cast<std::size_t>((sz * ly + (sy + h[1])) * lx + (sx + h[2]));
+        num.values[idx] = num_[half];
+        if (!den_.empty()) {
+          den.values[idx] = den_[half];
+        } else if (prism_) {
+          const std::size_t p = static_cast<std::size_t>((dy + h[1]) * lx + (dx + h[2]));
+          den.values[idx] = (prismPlane_.empty() ? 0.0 : prismPlane_[p]) *
+                            static_cast<double>(n[0] - std::abs(dz));
+        } else {
+          den.values[idx] = static_cast<double>(n[1] - std::abs(dy)) *
+                            static_cast<double>(n[2] - std::abs(dx)) *
+                            static_cast<double>(n[0] - std::abs(dz));
+        }
+      }
+  S2Result r = reduce(num, den, lattice_, options_, h);
+  r.paddedDims = padded_;
   return r;
 }
 

@@ -37,11 +37,13 @@ double shapeDiameterMm(const std::string& spec) {
   return 0;
 }
 
-double inferDiameterMm(const Bed& bed) {
+}  // namespace
+
+double inferDiameterMm(const ParticleTable& particles) {
   double sum = 0;
   std::size_t n = 0;
-  for (std::size_t p = 0; p < bed.particles.shape.size() && p < 10000; ++p) {
-    const double d = shapeDiameterMm(bed.particles.shape[p]);
+  for (std::size_t p = 0; p < particles.shape.size() && p < 10000; ++p) {
+    const double d = shapeDiameterMm(particles.shape[p]);
     if (d > 0) {
       sum += d;
       ++n;
@@ -49,6 +51,8 @@ double inferDiameterMm(const Bed& bed) {
   }
   return n ? sum / static_cast<double>(n) : 0;
 }
+
+namespace {
 
 json s2Curve(const S2Curve& c) {
   return {{"h_mm", arr(c.hMm)}, {"s2", arr(c.s2)}, {"pairs", arr(c.pairs)}};
@@ -104,7 +108,105 @@ const std::set<std::string>& statisticNames() {
   return names;
 }
 
-json computeStats(const Bed& bed, const StatsOptions& options, Progress& progress) {
+json statsHeaderJson(const Lattice& l, const StatsOptions& options,
+                     const std::set<std::string>& which, const BedSummary& sum, double diameter) {
+  json out;
+  out["voxpack_version"] = versionString();
+  out["options"] = optionsJson(options, which);
+  out["lattice"] = {{"dims", {l.dims[0], l.dims[1], l.dims[2]}},
+                    {"spacing_mm", {l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}},
+                    {"origin_mm", {l.originMm[0], l.originMm[1], l.originMm[2]}}};
+  out["voxels_in_mask"] = sum.voxelsInMask;
+  out["void_voxels"] = sum.voidVoxels;
+  out["porosity"] = sum.emptyMask ? json(nullptr) : json(sum.porosity);
+  out["packing_density"] = sum.emptyMask ? json(nullptr) : json(sum.packingDensity);
+  out["particle_diameter_mm"] = diameter > 0 ? json(diameter) : json(nullptr);
+  return out;
+}
+
+json axialJson(const AxialProfile& axial, double trim) {
+  json a;
+  a["z_mm"] = arr(axial.zMm);
+  a["density"] = arr(axial.density);
+  a["mean"] = finiteOrNull(axial.mean);
+  a["std"] = finiteOrNull(axial.std);
+  a["trim_mm"] = trim;
+  a["slices_used"] = axial.density.size();
+  a["z_all_mm"] = arr(axial.zMmAll);
+  a["density_all"] = arr(axial.densityAll);
+  a["histogram"] = {{"edges", arr(axial.histogramEdges)}, {"counts", arr(axial.histogramCounts)}};
+  const auto& nt = axial.normality;
+  a["normality"] = {{"test", "dagostino-pearson"},
+                    {"statistic", nt.statistic >= 0 ? json(nt.statistic) : json(nullptr)},
+                    {"p_value", nt.pValue >= 0 ? json(nt.pValue) : json(nullptr)},
+                    {"skewness", nt.statistic >= 0 ? json(nt.skewness) : json(nullptr)},
+                    {"excess_kurtosis", nt.statistic >= 0 ? json(nt.kurtosis) : json(nullptr)}};
+  return a;
+}
+
+RadialOptions radialOptions(const StatsOptions& options, const AxialProfile& axial,
+                            double diameter) {
+  RadialOptions ro;
+  ro.binWidthMm = options.radialBinMm;
+  if (axial.lastSlice >= axial.firstSlice) {
+    ro.firstSlice = axial.firstSlice;
+    ro.lastSlice = axial.lastSlice;
+  }
+  if (diameter > 0) ro.coreMarginMm = 2 * diameter;
+  return ro;
+}
+
+json radialJson(const RadialProfile& rp, double diameter) {
+  json r;
+  r["r_mm"] = arr(rp.rMm);
+  r["density"] = arr(rp.density);
+  r["wall_distance_mm"] = arr(rp.wallDistanceMm);
+  if (diameter > 0) {
+    std::vector<double> wd(rp.wallDistanceMm.size());
+    for (std::size_t b = 0; b < wd.size(); ++b) wd[b] = rp.wallDistanceMm[b] / diameter;
+    r["wall_distance_d"] = arr(wd);
+  }
+  r["area_mm2"] = arr(rp.areaMm2);
+  r["axis_mm"] = {rp.axisMm[0], rp.axisMm[1]};
+  r["radius_mm"] = rp.radiusMm;
+  r["axis_fitted"] = true;
+  r["core_radius_mm"] = finiteOrNull(rp.coreRadiusMm);
+  r["core_density"] = finiteOrNull(rp.coreDensity);
+  r["whole_density"] = finiteOrNull(rp.wholeDensity);
+  return r;
+}
+
+S2Options s2Options(const StatsOptions& options) {
+  S2Options so;
+  so.maxLagMm = options.s2MaxLagMm;
+  so.precision = options.s2Float ? FftPrecision::Float : FftPrecision::Double;
+  so.threads = options.threads;
+  return so;
+}
+
+json s2Json(const S2Result& s, const StatsOptions& options) {
+  json j;
+  if (s.emptyMask) {
+    j = {{"h_mm", json::array()}, {"s2", json::array()}, {"phi", nullptr}};
+  } else {
+    j["h_mm"] = arr(s.radial.hMm);
+    j["s2"] = arr(s.radial.s2);
+    j["pairs"] = arr(s.radial.pairs);
+    j["phi"] = finiteOrNull(s.phi);
+    j["axial"] = s2Curve(s.axial);
+    j["transverse"] = s2Curve(s.transverse);
+    j["correlation_length_mm"] =
+        s.correlationLengthMm >= 0 ? json(s.correlationLengthMm) : json(nullptr);
+    j["specific_surface_per_mm"] =
+        s.specificSurfacePerMm >= 0 ? json(s.specificSurfacePerMm) : json(nullptr);
+  }
+  j["max_lag_voxels"] = {s.maxLagVoxels[0], s.maxLagVoxels[1], s.maxLagVoxels[2]};
+  j["fft_dims"] = {s.paddedDims[0], s.paddedDims[1], s.paddedDims[2]};
+  j["precision"] = options.s2Float ? "float" : "double";
+  return j;
+}
+
+void validateStatsOptions(const StatsOptions& options) {
   for (const auto& n : options.only)
     if (!statisticNames().count(n))
       throw InputError("stats: unknown statistic '" + n +
@@ -120,26 +222,18 @@ json computeStats(const Bed& bed, const StatsOptions& options, Progress& progres
                      options.mesMethod + "'");
   if (options.mesSamples < 1) throw InputError("stats: mes samples must be >= 1");
   if (options.mesDirections < 1) throw InputError("stats: mes directions must be >= 1");
+}
+
+json computeStats(const Bed& bed, const StatsOptions& options, Progress& progress) {
+  validateStatsOptions(options);
   bed.lattice().validate("bed");
   const std::set<std::string> which = options.only.empty() ? statisticNames() : options.only;
   auto want = [&](const char* n) { return which.count(n) != 0; };
 
-  json out;
-  out["voxpack_version"] = versionString();
-  out["options"] = optionsJson(options, which);
-  const Lattice& l = bed.lattice();
-  out["lattice"] = {{"dims", {l.dims[0], l.dims[1], l.dims[2]}},
-                    {"spacing_mm", {l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}},
-                    {"origin_mm", {l.originMm[0], l.originMm[1], l.originMm[2]}}};
   const BedSummary sum = summarize(bed);
-  out["voxels_in_mask"] = sum.voxelsInMask;
-  out["void_voxels"] = sum.voidVoxels;
-  out["porosity"] = sum.emptyMask ? json(nullptr) : json(sum.porosity);
-  out["packing_density"] = sum.emptyMask ? json(nullptr) : json(sum.packingDensity);
-
   const double diameter =
-      options.particleDiameterMm > 0 ? options.particleDiameterMm : inferDiameterMm(bed);
-  out["particle_diameter_mm"] = diameter > 0 ? json(diameter) : json(nullptr);
+      options.particleDiameterMm > 0 ? options.particleDiameterMm : inferDiameterMm(bed.particles);
+  json out = statsHeaderJson(bed.lattice(), options, which, sum, diameter);
   const double trim = options.trimMm >= 0 ? options.trimMm : (diameter > 0 ? 2 * diameter : 0);
 
   AxialProfile axial;
@@ -150,79 +244,16 @@ json computeStats(const Bed& bed, const StatsOptions& options, Progress& progres
     ao.trimMm = trim;
     axial = axialProfile(bed, ao);
   }
-  if (want("axial")) {
-    json a;
-    a["z_mm"] = arr(axial.zMm);
-    a["density"] = arr(axial.density);
-    a["mean"] = finiteOrNull(axial.mean);
-    a["std"] = finiteOrNull(axial.std);
-    a["trim_mm"] = trim;
-    a["slices_used"] = axial.density.size();
-    a["z_all_mm"] = arr(axial.zMmAll);
-    a["density_all"] = arr(axial.densityAll);
-    a["histogram"] = {{"edges", arr(axial.histogramEdges)}, {"counts", arr(axial.histogramCounts)}};
-    const auto& nt = axial.normality;
-    a["normality"] = {{"test", "dagostino-pearson"},
-                      {"statistic", nt.statistic >= 0 ? json(nt.statistic) : json(nullptr)},
-                      {"p_value", nt.pValue >= 0 ? json(nt.pValue) : json(nullptr)},
-                      {"skewness", nt.statistic >= 0 ? json(nt.skewness) : json(nullptr)},
-                      {"excess_kurtosis", nt.statistic >= 0 ? json(nt.kurtosis) : json(nullptr)}};
-    out["axial"] = a;
-  }
+  if (want("axial")) out["axial"] = axialJson(axial, trim);
   if (want("radial")) {
     progress.report("radial profile", 0);
-    RadialOptions ro;
-    ro.binWidthMm = options.radialBinMm;
-    if (axial.lastSlice >= axial.firstSlice) {
-      ro.firstSlice = axial.firstSlice;
-      ro.lastSlice = axial.lastSlice;
-    }
-    if (diameter > 0) ro.coreMarginMm = 2 * diameter;
-    const RadialProfile rp = radialProfile(bed, ro);
-    json r;
-    r["r_mm"] = arr(rp.rMm);
-    r["density"] = arr(rp.density);
-    r["wall_distance_mm"] = arr(rp.wallDistanceMm);
-    if (diameter > 0) {
-      std::vector<double> wd(rp.wallDistanceMm.size());
-      for (std::size_t b = 0; b < wd.size(); ++b) wd[b] = rp.wallDistanceMm[b] / diameter;
-      r["wall_distance_d"] = arr(wd);
-    }
-    r["area_mm2"] = arr(rp.areaMm2);
-    r["axis_mm"] = {rp.axisMm[0], rp.axisMm[1]};
-    r["radius_mm"] = rp.radiusMm;
-    r["axis_fitted"] = true;
-    r["core_radius_mm"] = finiteOrNull(rp.coreRadiusMm);
-    r["core_density"] = finiteOrNull(rp.coreDensity);
-    r["whole_density"] = finiteOrNull(rp.wholeDensity);
-    out["radial"] = r;
+    const RadialProfile rp = radialProfile(bed, radialOptions(options, axial, diameter));
+    out["radial"] = radialJson(rp, diameter);
   }
   if (want("s2")) {
-    S2Options so;
-    so.maxLagMm = options.s2MaxLagMm;
-    so.precision = options.s2Float ? FftPrecision::Float : FftPrecision::Double;
-    so.threads = options.threads;
-    const S2Result s =
-        twoPointProbability(bed.indicator, bed.mask ? &*bed.mask : nullptr, so, progress);
-    json j;
-    if (s.emptyMask) {
-      j = {{"h_mm", json::array()}, {"s2", json::array()}, {"phi", nullptr}};
-    } else {
-      j["h_mm"] = arr(s.radial.hMm);
-      j["s2"] = arr(s.radial.s2);
-      j["pairs"] = arr(s.radial.pairs);
-      j["phi"] = finiteOrNull(s.phi);
-      j["axial"] = s2Curve(s.axial);
-      j["transverse"] = s2Curve(s.transverse);
-      j["correlation_length_mm"] =
-          s.correlationLengthMm >= 0 ? json(s.correlationLengthMm) : json(nullptr);
-      j["specific_surface_per_mm"] =
-          s.specificSurfacePerMm >= 0 ? json(s.specificSurfacePerMm) : json(nullptr);
-    }
-    j["max_lag_voxels"] = {s.maxLagVoxels[0], s.maxLagVoxels[1], s.maxLagVoxels[2]};
-    j["fft_dims"] = {s.paddedDims[0], s.paddedDims[1], s.paddedDims[2]};
-    j["precision"] = options.s2Float ? "float" : "double";
-    out["s2"] = j;
+    const S2Result s = twoPointProbability(bed.indicator, bed.mask ? &*bed.mask : nullptr,
+                                           s2Options(options), progress);
+    out["s2"] = s2Json(s, options);
   }
   addExtraStatistics(out, bed, options, which, diameter, progress);
   sanitizeNonFinite(out);

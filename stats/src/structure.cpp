@@ -214,21 +214,32 @@ Coordination coordinationNumbers(const Bed& bed) {
             pairs.insert(lo << 32 | hi);
           }
       }
-  std::vector<double> perLabel(static_cast<std::size_t>(maxLabel) + 1, 0.0);
-  std::vector<std::uint8_t> present(perLabel.size(), 0);
-  for (std::size_t o = 0; o < lab.size(); ++o) present[lab[o]] = 1;
+  // Per-label tables are indexed by the labels present (sorted), never by the label value:
+  // one voxel labelled 0xFFFFFFFF must not ask for a 2^32-entry table (docs/stats.md).
+  (void)maxLabel;
+  std::vector<std::uint32_t> present;
+  {
+    std::unordered_set<std::uint32_t> seen;
+    for (std::size_t o = 0; o < lab.size(); ++o)
+      if (lab[o] != 0 && seen.insert(lab[o]).second) present.push_back(lab[o]);
+  }
+  std::sort(present.begin(), present.end());
+  auto slot = [&](std::uint32_t label) {
+    return static_cast<std::size_t>(std::lower_bound(present.begin(), present.end(), label) -
+                                    present.begin());
+  };
+  std::vector<double> perLabel(present.size(), 0.0);
   for (std::uint64_t p : pairs) {
-    perLabel[static_cast<std::size_t>(p >> 32)] += 1;
-    perLabel[static_cast<std::size_t>(p & 0xffffffffu)] += 1;
+    perLabel[slot(static_cast<std::uint32_t>(p >> 32))] += 1;
+    perLabel[slot(static_cast<std::uint32_t>(p & 0xffffffffu))] += 1;
   }
   Coordination c;
   c.contacts = pairs.size();
   double sum = 0;
-  for (std::size_t a = 1; a < perLabel.size(); ++a)
-    if (present[a]) {
-      c.perParticle.push_back(perLabel[a]);
-      sum += perLabel[a];
-    }
+  for (double v : perLabel) {
+    c.perParticle.push_back(v);
+    sum += v;
+  }
   c.particles = c.perParticle.size();
   c.mean = c.particles ? sum / static_cast<double>(c.particles) : kNaN;
   return c;

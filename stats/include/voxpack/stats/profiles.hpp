@@ -48,6 +48,24 @@ struct AxialProfile {
 /// Axial profile of `bed`.
 AxialProfile axialProfile(const Bed& bed, const AxialOptions& options);
 
+/// Per-slice voxel counts inside the mask: what the axial profile, the porosity and the
+/// packed-region detection need, accumulated slab by slab (integers: exact in any order).
+struct SliceCounts {
+  std::vector<std::uint64_t> mask;   ///< voxels inside the mask per slice
+  std::vector<std::uint64_t> solid;  ///< solid voxels inside the mask per slice
+};
+
+/// Slice counts of a whole bed.
+SliceCounts sliceCounts(const Bed& bed);
+
+/// Adds the slices of a slab whose first plane is slice `z0` of the whole lattice.
+void accumulateSliceCounts(SliceCounts& counts, std::int64_t z0,
+                           const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* mask);
+
+/// Axial profile from slice counts over `lattice` (counts.mask.size() == nz).
+AxialProfile axialProfile(const Lattice& lattice, const SliceCounts& counts,
+                          const AxialOptions& options);
+
 /// Options of radialProfile.
 struct RadialOptions {
   /// Column axis (x, y) in mm; empty = fitted as the centroid of the mask.
@@ -81,5 +99,24 @@ struct RadialProfile {
 
 /// Radial profile of `bed`.
 RadialProfile radialProfile(const Bed& bed, const RadialOptions& options);
+
+/// Per-column (y, x) counts over the slices used: the radial profile's input, accumulated
+/// slab by slab (integer-valued doubles: exact in any order).
+struct ColumnCounts {
+  ColumnCounts() = default;
+  ColumnCounts(std::int64_t ny, std::int64_t nx);  ///< zeros for ny*nx columns
+  std::vector<double> mask;                        ///< mask voxels per column
+  std::vector<double> solid;                       ///< solid mask voxels per column
+  std::uint64_t slicesWithMask = 0;                ///< slices used holding at least one mask voxel
+};
+
+/// Adds the slices of a slab (first plane = slice `z0`) that lie in [firstSlice, lastSlice].
+void accumulateColumnCounts(ColumnCounts& counts, std::int64_t z0,
+                            const Grid<std::uint8_t>& indicator, const Grid<std::uint8_t>* mask,
+                            std::int64_t firstSlice, std::int64_t lastSlice);
+
+/// Radial profile from column counts over `lattice` (`hasMask`: the bed has a /mask).
+RadialProfile radialProfile(const Lattice& lattice, bool hasMask, const ColumnCounts& counts,
+                            const RadialOptions& options);
 
 }  // namespace voxpack::stats

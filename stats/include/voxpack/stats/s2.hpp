@@ -85,6 +85,54 @@ S2Result twoPointProbability(const Grid<std::uint8_t>& indicator, const Grid<std
 S2Result twoPointProbabilityDirect(const Grid<std::uint8_t>& indicator,
                                    const Grid<std::uint8_t>* mask, const S2Options& options);
 
+/// Lags (hz, hy, hx) voxels twoPointProbability computes on `lattice` with `options`.
+std::array<std::int64_t, 3> s2MaxLag(const Lattice& lattice, const S2Options& options);
+
+/// FFT sizes of the zero-padded correlation of a field of `dims` for lags `maxLag`.
+std::array<std::int64_t, 3> s2PaddedDims(const std::array<std::int64_t, 3>& dims,
+                                         const std::array<std::int64_t, 3>& maxLag);
+
+/// S2 of a bed streamed in z-slabs (docs/scale.md). Each slab owns planes [z0, z1) and is
+/// given with hz more planes above (clipped at the top); for lags with h_z >= 0 it adds
+/// the pairs whose first point lies in its own planes: the autocorrelation of the whole
+/// slab minus that of its halo alone (the pairs with both points in the halo belong to the
+/// next slab). The other half of the lags follows from C(−h) = C(h). In double precision
+/// every lag sum is rounded to its integer (the counts are integers, the FFT error is
+/// < 1e-6), so the sum over slabs equals the whole-volume count exactly, in any order.
+class S2SlabAccumulator {
+ public:
+  /// Accumulator for `lattice` (the whole region streamed); `hasMask`: a mask is given with
+  /// each slab; `prismMask`: every mask slice equals `prismSlice` (then the pair count is
+  /// the slice's 2D count times (n_z − |h_z|), as in the in-memory path).
+  S2SlabAccumulator(const Lattice& lattice, bool hasMask, bool prismMask, const S2Options& options);
+  /// Lags computed; the slab halo is maxLag()[0] planes.
+  const std::array<std::int64_t, 3>& maxLag() const { return maxLag_; }
+  /// Sets the mask slice of a prism mask (needed once when prismMask).
+  void setPrismSlice(const Grid<std::uint8_t>& slice);
+  /// Adds the slab owning planes [z0, z1): `indicator` (and `mask`) hold planes
+  /// [z0, min(nz, z1 + hz)).
+  void addSlab(std::int64_t z0, std::int64_t z1, const Grid<std::uint8_t>& indicator,
+               const Grid<std::uint8_t>* mask);
+  /// Numerator sums over the lags with h_z >= 0 ((hz+1)(2hy+1)(2hx+1), for reductions).
+  std::vector<double>& numerator() { return num_; }
+  /// Pair-count sums (used only for a non-prism mask).
+  std::vector<double>& pairCounts() { return den_; }
+  /// Largest FFT sizes used by a slab.
+  const std::array<std::int64_t, 3>& fftDims() const { return padded_; }
+  /// The S2 result from the accumulated sums (identical to twoPointProbability's in double
+  /// precision).
+  S2Result finish() const;
+
+ private:
+  Lattice lattice_;
+  bool hasMask_, prism_;
+  S2Options options_;
+  std::array<std::int64_t, 3> maxLag_{0, 0, 0};
+  std::array<std::int64_t, 3> padded_{0, 0, 0};
+  std::vector<double> num_, den_, prismPlane_;
+  void addHalf(std::vector<double>& dst, const std::vector<double>& full, double sign) const;
+};
+
 /// Smallest FFT-friendly size (factors 2, 3, 5, 7 only) >= n.
 std::int64_t fftFriendlySize(std::int64_t n);
 
