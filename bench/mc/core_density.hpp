@@ -1,7 +1,7 @@
 #pragma once
 // Packing density of a bed inside its mask over the central region: the slices from
 // 2 d above the floor (lowest mask slice) to 2 d below the bed top (highest solid
-// voxel), REFERENCES.md §2 measurement protocol. Used before `voxpack stats` existed.
+// voxel), docs/references.md measurement protocol. Used before `voxpack stats` existed.
 #include <algorithm>
 #include <cstdint>
 

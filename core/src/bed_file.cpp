@@ -1,4 +1,4 @@
-// Bed file I/O over the HDF5 C API (SPEC.md, "The bed file"). The C API is used rather
+// Bed file I/O over the HDF5 C API (docs/interfaces.md, "The bed file"). The C API is used rather
 // than the C++ one because Debian's HDF5 C++ bindings are a separate package and the C
 // API lets every failure be turned into one typed exception naming the file.
 #include "voxpack/core/bed_file.hpp"

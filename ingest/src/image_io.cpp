@@ -43,7 +43,7 @@ std::size_t metComponentBytes(const std::string& metType) {
 }
 
 // ITK's MetaImage reader takes a .mhd whose data file is gzip-compressed but whose header
-// lacks `CompressedData = True`, and returns garbage without an error (REFERENCES.md §6).
+// lacks `CompressedData = True`, and returns garbage without an error (docs/references.md).
 // So the data file is checked against the header before ITK sees it: gzip magic bytes,
 // and the exact byte count the header implies.
 void checkMetaImageHeader(const fs::path& header) {

@@ -1,4 +1,4 @@
-// Two-point probability by zero-padded FFT (REFERENCES.md §4, docs/stats.md).
+// Two-point probability by zero-padded FFT (docs/references.md, docs/stats.md).
 #include "voxpack/stats/s2.hpp"
 
 #include <fftw3.h>

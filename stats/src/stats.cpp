@@ -1,4 +1,4 @@
-// computeStats: every statistic of a bed as one JSON object (SPEC.md keys), and CSV export.
+// computeStats: every statistic of a bed as one JSON object (docs/interfaces.md keys), and CSV export.
 #include "voxpack/stats/stats.hpp"
 
 #include <algorithm>

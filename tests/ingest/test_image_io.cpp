@@ -130,7 +130,7 @@ TEST(IngestIo, RefusesTwoDimensionalImage) {
 
 TEST(IngestIo, RefusesGzipDataWithoutCompressedDataKey) {
   // A .mhd naming a gzip file without `CompressedData = True`: ITK would read the
-  // compressed bytes as pixels without complaint (REFERENCES.md section 6).
+  // compressed bytes as pixels without complaint (docs/references.md).
   TempDir dir;
   std::ofstream(dir / "v.raw", std::ios::binary) << std::string(4 * 4 * 4, '\x07');
   ASSERT_EQ(voxpack::test::runShell("gzip " + voxpack::test::shellQuote((dir / "v.raw").string())),

@@ -1,4 +1,4 @@
-// S2 by FFT against analytic oracles and a brute-force direct sum (REFERENCES.md §4).
+// S2 by FFT against analytic oracles and a brute-force direct sum (docs/references.md).
 #include <gtest/gtest.h>
 
 #include <cmath>

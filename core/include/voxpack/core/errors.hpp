@@ -26,7 +26,7 @@ class IoError : public Error {
   using Error::Error;
 };
 
-/// A bed/image file is readable but does not follow its format (SPEC.md bed table).
+/// A bed/image file is readable but does not follow its format (docs/interfaces.md bed table).
 class FormatError : public InputError {
  public:
   using InputError::InputError;

@@ -1,6 +1,6 @@
 #pragma once
 /// \file mes.hpp
-/// Mean empty space (REFERENCES.md §4, our definition): for a void voxel x and a direction
+/// Mean empty space (docs/references.md, our definition): for a void voxel x and a direction
 /// u, the chord c(x, u) = distance to the first solid along +u plus along −u (the container
 /// wall counts as solid); m(x) = mean of c over the directions; reported as the
 /// void-volume-weighted distribution of m. Window cuts: m(x) is kept only when no chord

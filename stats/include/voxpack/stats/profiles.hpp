@@ -1,6 +1,6 @@
 #pragma once
 /// \file profiles.hpp
-/// Axial and radial packing-density profiles inside the mask (paper §4, REFERENCES.md §4).
+/// Axial and radial packing-density profiles inside the mask (paper §4, docs/references.md).
 
 #include <array>
 #include <cstdint>

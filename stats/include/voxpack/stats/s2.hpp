@@ -1,7 +1,7 @@
 #pragma once
 /// \file s2.hpp
 /// Two-point probability S2(h) of the void phase by FFT, masked and non-periodic
-/// (REFERENCES.md §4): S2(h) = IFFT(|FFT(I·M)|²)(h) / IFFT(|FFT(M)|²)(h), zero-padded only
+/// (docs/references.md): S2(h) = IFFT(|FFT(I·M)|²)(h) / IFFT(|FFT(M)|²)(h), zero-padded only
 /// to n + h_max per axis. Derivation and the float/double choice: docs/stats.md.
 
 #include <array>

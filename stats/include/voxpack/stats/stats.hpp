@@ -1,7 +1,7 @@
 #pragma once
 /// \file stats.hpp
 /// Entry point of the statistics library: every statistic of a bed as one JSON object
-/// with the keys SPEC.md fixes (porosity, packing_density, axial, radial, s2, mes, ...).
+/// with the keys docs/interfaces.md fixes (porosity, packing_density, axial, radial, s2, mes, ...).
 /// The compare module and `voxpack stats` both call computeStats.
 
 #include <cstdint>
