@@ -322,20 +322,15 @@ hid_t chunkedPlist(int rank, const hsize_t* dims, const hsize_t* chunk, const Be
   return plist;
 }
 
+Handle createVolume(hid_t file, const char* path, const Lattice& l, hid_t fileType,
+                    const BedWriteOptions& o);
+
+// A whole volume in one write, through the same chunked layout as the slab writer.
 template <class T>
 void writeVolume(hid_t file, const char* path, const Grid<T>& g, hid_t fileType,
                  const BedWriteOptions& o) {
-  const auto& d = g.lattice().dims;
-  hsize_t dims[3] = {static_cast<hsize_t>(d[0]), static_cast<hsize_t>(d[1]),
-                     static_cast<hsize_t>(d[2])};
-  // ~256 KiB uint8 chunks: whole rows and planes compress well and stay cache-sized.
-  hsize_t chunk[3] = {std::min<hsize_t>(dims[0], 16), std::min<hsize_t>(dims[1], 128),
-                      std::min<hsize_t>(dims[2], 128)};
-  Handle space(H5Screate_simple(3, dims, nullptr), H5Sclose);
-  Handle plist(chunkedPlist(3, dims, chunk, o), H5Pclose);
-  Handle ds(H5Dcreate2(file, path, fileType, space.get(), H5P_DEFAULT, plist.get(), H5P_DEFAULT),
-            H5Dclose);
-  if (!ds.ok() || H5Dwrite(ds.get(), nativeType<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, g.data()) < 0)
+  Handle ds = createVolume(file, path, g.lattice(), fileType, o);
+  if (H5Dwrite(ds.get(), nativeType<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, g.data()) < 0)
     throw IoError(std::string("cannot write ") + path);
 }
 
@@ -526,8 +521,9 @@ void checkParticles(const Ctx& ctx, const ParticleTable& t) {
   }
 }
 
-// Creates a chunked rank-3 volume dataset (chunks of 16 planes x 128 x 128: a z-slab read
-// aligned to 16 planes decompresses each chunk once).
+// Creates a chunked rank-3 volume dataset (~256 KiB uint8 chunks of 16 planes x 128 x 128:
+// they compress well, stay cache-sized, and a z-slab read aligned to 16 planes decompresses
+// each chunk once).
 Handle createVolume(hid_t file, const char* path, const Lattice& l, hid_t fileType,
                     const BedWriteOptions& o) {
   const auto& d = l.dims;
