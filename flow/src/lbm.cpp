@@ -11,10 +11,18 @@
 // plain loop over fluid cells. Every cell's update depends on the old lattice only, and
 // reductions are summed per fixed block of cells and then in block order, so the result
 // is bitwise identical for any thread count.
+//
+// Interpolated walls (LbmDomain::signedDistance): Bouzidi, Firdaouss & Lallemand (2001)
+// linear interpolation. A wall link is a (fluid cell, incoming direction) whose pull source
+// is a solid cell; its wall cut q along the link comes from the signed distance. After the
+// pull, the incoming population is replaced by a*f[i1] + b*f[i2] of post-collision values
+// (q < 1/2: 2q f_i(x) + (1-2q) f_i(x + c_q), q >= 1/2: f_i(x)/(2q) + (2q-1)/(2q) f_q(x),
+// i = opposite of q). The links are sorted by cell, so the kernel walks them in step.
 #include "voxpack/flow/lbm.hpp"
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -33,6 +41,12 @@ constexpr std::size_t kBlock = 4096;  // cells per reduction block (fixed: deter
 struct Rates {
   double omegaPlus, omegaMinus;
   double force[3];
+};
+
+// One interpolated wall link: f[slot] of `cell` = a * fin[i1] + b * fin[i2].
+struct WallLink {
+  std::uint32_t cell, slot, i1, i2;
+  double a, b;
 };
 
 // Sums over one block.
@@ -65,7 +79,8 @@ inline Moments moments(const double* f, const double* force) {
 // One fused stream (pull) + TRT collision step over cells [begin, end).
 template <class T>
 void stepRange(const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
-               std::size_t begin, std::size_t end, const Rates& r, int axis, BlockSums* sums) {
+               const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end,
+               const Rates& r, int axis, BlockSums* sums) {
   const double wp = r.omegaPlus, wm = r.omegaMinus;
   const double gp = 1.0 - 0.5 * wp, gm = 1.0 - 0.5 * wm;
   for (std::size_t c = begin; c < end; ++c) {
@@ -73,6 +88,9 @@ void stepRange(const T* fin, T* fout, const std::uint32_t* src, const std::uint8
     const std::uint32_t* from = src + c * (kQ - 1);
     f[0] = fin[c * kQ];
     for (int q = 1; q < kQ; ++q) f[q] = fin[from[q - 1]];
+    for (; lk != lkEnd && lk->cell == c; ++lk)
+      f[lk->slot] =
+          lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
     const double* F = inSample[c] ? r.force : kZero3;
     const Moments m = moments(f, F);
     const double uu = m.u[0] * m.u[0] + m.u[1] * m.u[1] + m.u[2] * m.u[2];
@@ -112,16 +130,26 @@ template <class T>
 class Solver {
  public:
   Solver(std::size_t n, std::vector<std::uint32_t> src, std::vector<std::uint8_t> inSample,
-         const Rates& rates, int axis, int threads)
+         std::vector<WallLink> links, const Rates& rates, int axis, int threads)
       : n_(n),
         src_(std::move(src)),
         inSample_(std::move(inSample)),
+        links_(std::move(links)),
         a_(kQ * n, T(0)),
         b_(kQ * n, T(0)),
         rates_(rates),
         axis_(axis),
         threads_(threads),
-        blocks_((n + kBlock - 1) / kBlock) {}
+        blocks_((n + kBlock - 1) / kBlock) {
+    // First wall link of every block (and one past the last): links are sorted by cell.
+    linkStart_.resize(blocks_ + 1);
+    std::size_t l = 0;
+    for (std::size_t bi = 0; bi <= blocks_; ++bi) {
+      const std::size_t first = std::min(n_, bi * kBlock);
+      while (l < links_.size() && links_[l].cell < first) ++l;
+      linkStart_[bi] = l;
+    }
+  }
 
   // One step; when `sums` is given, fills the totals of this step (block order).
   void step(BlockSums* total) {
@@ -133,7 +161,9 @@ class Solver {
     for (std::int64_t bi = 0; bi < nb; ++bi) {
       const std::size_t begin = static_cast<std::size_t>(bi) * kBlock;
       const std::size_t end = std::min(n_, begin + kBlock);
-      stepRange(fin, fout, src_.data(), inSample_.data(), begin, end, rates_, axis_,
+      const WallLink* l0 = links_.data() + linkStart_[static_cast<std::size_t>(bi)];
+      const WallLink* l1 = links_.data() + linkStart_[static_cast<std::size_t>(bi) + 1];
+      stepRange(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
                 total ? &part[static_cast<std::size_t>(bi)] : nullptr);
     }
     a_.swap(b_);
@@ -151,6 +181,12 @@ class Solver {
   void incoming(std::size_t c, double* f) const {
     f[0] = a_[c * kQ];
     for (int q = 1; q < kQ; ++q) f[q] = a_[src_[c * (kQ - 1) + q - 1]];
+    const std::size_t bi = c / kBlock;
+    for (std::size_t l = linkStart_[bi]; l < linkStart_[bi + 1]; ++l) {
+      const WallLink& lk = links_[l];
+      if (lk.cell == c)
+        f[lk.slot] = lk.a * static_cast<double>(a_[lk.i1]) + lk.b * static_cast<double>(a_[lk.i2]);
+    }
   }
 
   // Sum of rho over all cells of the stored (post-collision) state: the mass.
@@ -192,6 +228,8 @@ class Solver {
   std::size_t n_;
   std::vector<std::uint32_t> src_;
   std::vector<std::uint8_t> inSample_;
+  std::vector<WallLink> links_;
+  std::vector<std::size_t> linkStart_;
   std::vector<T> a_, b_;
   Rates rates_;
   int axis_;
@@ -252,6 +290,54 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
         src[slot] = static_cast<std::uint32_t>(c * kQ + static_cast<std::size_t>(kOpposite[q]));
     }
   }
+  // Interpolated wall links from the signed distance (serial: few cells, sorted by cell).
+  std::vector<WallLink> links;
+  if (!dom.signedDistance.empty()) {
+    for (std::size_t c = 0; c < n; ++c) {
+      const std::uint64_t off = res.cellOffset[c];
+      const double phiF = dom.signedDistance[off];
+      if (!(phiF > 0)) continue;  // the geometry disagrees with the flags: keep halfway
+      const std::int64_t k = static_cast<std::int64_t>(off) / (dims[1] * dims[2]);
+      const std::int64_t j = (static_cast<std::int64_t>(off) / dims[2]) % dims[1];
+      const std::int64_t i = static_cast<std::int64_t>(off) % dims[2];
+      for (int q = 1; q < kQ; ++q) {
+        const int back[3] = {-kC[q][0], -kC[q][1], -kC[q][2]};
+        std::int64_t p[3] = {k, j, i};
+        if (!neighbour(dims, dom.periodic, p, back)) continue;  // box face: halfway
+        const std::size_t so = static_cast<std::size_t>((p[0] * dims[1] + p[1]) * dims[2] + p[2]);
+        if (id[so] >= 0) continue;  // fluid neighbour: plain streaming
+        const double phiS = dom.signedDistance[so];
+        if (!(phiS <= 0)) continue;  // a solid the distance does not describe: halfway
+        const double qw = std::clamp(phiF / (phiF - phiS), 1e-3, 1.0);
+        const std::uint32_t opp = static_cast<std::uint32_t>(kOpposite[q]);
+        WallLink lk{static_cast<std::uint32_t>(c),
+                    static_cast<std::uint32_t>(q),
+                    static_cast<std::uint32_t>(c * kQ + opp),
+                    0,
+                    1.0,
+                    0.0};
+        if (qw >= 0.5) {
+          lk.i2 = static_cast<std::uint32_t>(c * kQ + static_cast<std::size_t>(q));
+          lk.a = 1.0 / (2.0 * qw);
+          lk.b = (2.0 * qw - 1.0) / (2.0 * qw);
+        } else {
+          std::int64_t p2[3] = {k, j, i};
+          std::int32_t behind = -1;
+          if (neighbour(dims, dom.periodic, p2, kC[q]))
+            behind = id[static_cast<std::size_t>((p2[0] * dims[1] + p2[1]) * dims[2] + p2[2])];
+          if (behind < 0) {
+            lk.i2 = lk.i1;  // no second fluid node: halfway
+          } else {
+            lk.i2 = static_cast<std::uint32_t>(static_cast<std::size_t>(behind) * kQ + opp);
+            lk.a = 2.0 * qw;
+            lk.b = 1.0 - 2.0 * qw;
+          }
+        }
+        links.push_back(lk);
+      }
+    }
+  }
+  res.interpolatedLinks = links.size();
   std::vector<std::int32_t>().swap(id);
 
   Rates rates{};
@@ -262,7 +348,8 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
   res.fluidCells = n;
   for (std::uint8_t s : inSample) res.sampleFluidCells += s;
 
-  Solver<T> solver(n, std::move(src), std::move(inSample), rates, o.axis, o.threads);
+  Solver<T> solver(n, std::move(src), std::move(inSample), std::move(links), rates, o.axis,
+                   o.threads);
   res.massInitial = solver.mass();
   const auto t0 = std::chrono::steady_clock::now();
   double previous = std::numeric_limits<double>::quiet_NaN();
@@ -331,7 +418,7 @@ const char* statusName(FlowStatus s) {
 }
 
 std::uint64_t estimateLbmBytes(std::uint64_t boxCells, std::uint64_t fluidCells,
-                               Precision precision) {
+                               Precision precision, std::uint64_t wallLinks) {
   const std::uint64_t pop = precision == Precision::Float ? 4 : 8;
   // Two lattices of 19 populations, 18 pull indices, sample flag, cell offset, final
   // fields (4 floats); the id map (4 bytes per box cell) lives during setup only, but
@@ -339,7 +426,8 @@ std::uint64_t estimateLbmBytes(std::uint64_t boxCells, std::uint64_t fluidCells,
   const std::uint64_t perCell = 2 * kQ * pop + (kQ - 1) * 4 + 1 + 8;
   const std::uint64_t setup = checkedProduct({boxCells, 4}, "flow lattice");
   const std::uint64_t fields = checkedProduct({fluidCells, 16}, "flow fields");
-  return checkedProduct({fluidCells, perCell}, "flow lattice") + std::max(setup, fields);
+  return checkedProduct({fluidCells, perCell}, "flow lattice") + std::max(setup, fields) +
+         checkedProduct({wallLinks, sizeof(WallLink)}, "flow wall links");
 }
 
 LbmResult runLbm(const LbmDomain& domain, const LbmOptions& o, const MemoryBudget& budget,
@@ -353,6 +441,8 @@ LbmResult runLbm(const LbmDomain& domain, const LbmOptions& o, const MemoryBudge
     throw InputError("flow: the lattice is empty or its fluid flags do not match its size");
   if (!domain.sample.empty() && domain.sample.size() != box)
     throw InputError("flow: the sample flags do not match the lattice size");
+  if (!domain.signedDistance.empty() && domain.signedDistance.size() != box)
+    throw InputError("flow: the signed distance does not match the lattice size");
   if (o.axis < 0 || o.axis > 2) throw InputError("flow: axis must be 0 (z), 1 (y) or 2 (x)");
   if (!(o.tauPlus > 0.5) || !std::isfinite(o.tauPlus))
     throw InputError("flow: tau must be greater than 0.5");
@@ -365,7 +455,23 @@ LbmResult runLbm(const LbmDomain& domain, const LbmOptions& o, const MemoryBudge
   if (fluid * kQ >= std::numeric_limits<std::uint32_t>::max())
     throw ResourceError("flow: " + std::to_string(fluid) +
                         " fluid cells exceed the 32-bit pull index (at most 2.2e8 cells)");
-  requireWithinBudget(estimateLbmBytes(box, fluid, o.precision), budget, "flow");
+  // Interpolated links: at most one per (fluid cell, direction) with a solid neighbour.
+  std::uint64_t wallLinks = 0;
+  if (!domain.signedDistance.empty()) {
+    const auto& d = domain.dims;
+    for (std::size_t off = 0; off < box; ++off) {
+      if (!domain.fluid[off]) continue;
+      for (int q = 1; q < kQ; ++q) {
+        std::int64_t p[3] = {static_cast<std::int64_t>(off) / (d[1] * d[2]),
+                             (static_cast<std::int64_t>(off) / d[2]) % d[1],
+                             static_cast<std::int64_t>(off) % d[2]};
+        if (neighbour(d, domain.periodic, p, kC[q]) &&
+            !domain.fluid[static_cast<std::size_t>((p[0] * d[1] + p[1]) * d[2] + p[2])])
+          ++wallLinks;
+      }
+    }
+  }
+  requireWithinBudget(estimateLbmBytes(box, fluid, o.precision, wallLinks), budget, "flow");
   LbmOptions opt = o;
   opt.threads = std::max(1, o.threads);
   if (o.precision == Precision::Double) return runTyped<double>(domain, opt, progress);

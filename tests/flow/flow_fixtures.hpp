@@ -18,16 +18,20 @@ inline flow::LbmDomain slitDomain(std::int64_t width) {
   return d;
 }
 
-/// Fluid where the cell centre lies within `radius` of the cross-section centre.
-inline flow::LbmDomain tubeDomain(std::int64_t box, double radius) {
+/// Fluid where the cell centre lies within `radius` of the cross-section centre;
+/// `distance`: with the exact signed distance radius - r (interpolated bounce-back).
+inline flow::LbmDomain tubeDomain(std::int64_t box, double radius, bool distance = false) {
   flow::LbmDomain d;
   d.dims = {1, box, box};
   d.fluid.assign(static_cast<std::size_t>(box * box), 0);
+  if (distance) d.signedDistance.assign(d.fluid.size(), 0.0f);
   const double c = 0.5 * static_cast<double>(box - 1);
   for (std::int64_t j = 0; j < box; ++j)
     for (std::int64_t i = 0; i < box; ++i) {
       const double r = std::hypot(static_cast<double>(j) - c, static_cast<double>(i) - c);
       d.fluid[static_cast<std::size_t>(j * box + i)] = r < radius ? 1 : 0;
+      if (distance)
+        d.signedDistance[static_cast<std::size_t>(j * box + i)] = static_cast<float>(radius - r);
     }
   d.periodic = {true, false, false};
   return d;

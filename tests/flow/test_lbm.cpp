@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <numbers>
 
@@ -65,31 +66,62 @@ TEST(FlowLbm, SlitPermeabilityIndependentOfTau) {
   EXPECT_NEAR(k3 / k08, 1.0, 1e-3);
 }
 
-// Hagen-Poiseuille in a digitised tube of 20 voxels across: flux F A^2 / (8 pi nu) with
-// A the digitised cross-section (the staircase wall's equivalent circle). Halfway
-// bounce-back on a staircase is the limit here: measured 1.6-2.7 % low at 20-21 voxels
-// across depending on how the circle falls on the lattice (docs/flow.md), so 3 %.
+// Hagen-Poiseuille in a tube of radius R = 10 (20 voxels across) with the wall placed
+// exactly by the signed distance (Bouzidi linear interpolated bounce-back): flux against
+// the continuous F pi R^4 / (8 nu) within 1 % (the nodal sum of the exact parabola over
+// the fluid cells differs from it by 0.04 %, so the quadrature is not what is measured),
+// for centres on and off the lattice and for several tau (measured: -0.6 .. +0.05 % at
+// tau 0.8-1, +0.8 .. +1.0 % at tau 2: the linear interpolation is not exactly
+// viscosity-independent under TRT, unlike halfway bounce-back).
 TEST(FlowLbm, TubeMatchesHagenPoiseuille) {
+  for (const auto& [box, radius] :
+       {std::pair<std::int64_t, double>{22, 10.0}, {23, 10.0}, {22, 9.7}}) {
+    for (double tau : {0.8, 1.0, 2.0}) {
+      const LbmDomain d = tubeDomain(box, radius, true);
+      const LbmOptions o = converging(tau);
+      const LbmResult r = runLbm(d, o);
+      ASSERT_EQ(r.status, FlowStatus::Converged);
+      EXPECT_GT(r.interpolatedLinks, 0u);
+      const double nu = latticeViscosity(o.tauPlus);
+      const double fluxExact = o.force * std::numbers::pi * std::pow(radius, 4) / (8.0 * nu);
+      EXPECT_NEAR(r.sumAxialVelocity / fluxExact, 1.0, 1e-2)
+          << "box " << box << " R " << radius << " tau " << tau;
+      // Profile u(r) = F (R^2 - r^2) / (4 nu): every cell within 1 % of the peak for
+      // tau <= 1; linear interpolation moves the effective wall with tau (measured 1.1-1.2 %
+      // at tau 2, flux +0.9 %), so 1.5 % there.
+      const double umax = o.force * radius * radius / (4.0 * nu);
+      const double c = 0.5 * static_cast<double>(box - 1);
+      double err = 0;
+      for (std::size_t cell = 0; cell < r.fluidCells; ++cell) {
+        const double j = static_cast<double>(r.cellOffset[cell] / static_cast<std::uint64_t>(box)),
+                     i = static_cast<double>(r.cellOffset[cell] % static_cast<std::uint64_t>(box));
+        const double rr = (j - c) * (j - c) + (i - c) * (i - c);
+        err = std::max(err, std::abs(r.fields.velocity[0][cell] -
+                                     o.force * (radius * radius - rr) / (4.0 * nu)));
+      }
+      EXPECT_LT(err / umax, tau <= 1.0 ? 1e-2 : 1.5e-2)
+          << "box " << box << " R " << radius << " tau " << tau;
+      std::printf("tube box %lld R %.1f tau %.1f: flux/exact %.5f, max profile error %.4f\n",
+                  static_cast<long long>(box), radius, tau, r.sumAxialVelocity / fluxExact,
+                  err / umax);
+    }
+  }
+}
+
+// The same tube with halfway bounce-back on the staircase: the wall is where the voxels
+// put it, so the flux is measured against the staircase's equivalent circle (area A,
+// F A^2 / (8 pi nu)) and is 2.7 % low at 20 voxels across (1.6-2.7 % depending on how the
+// circle falls on the lattice, docs/flow.md); pinned here so a change shows.
+TEST(FlowLbm, TubeHalfwayBounceBackStaircase) {
   const LbmDomain d = tubeDomain(22, 10.0);
   const LbmOptions o = converging(1.0);
   const LbmResult r = runLbm(d, o);
   ASSERT_EQ(r.status, FlowStatus::Converged);
+  EXPECT_EQ(r.interpolatedLinks, 0u);
   const double area = static_cast<double>(r.fluidCells);
   const double nu = latticeViscosity(o.tauPlus);
   const double fluxExact = o.force * area * area / (8.0 * std::numbers::pi * nu);
-  EXPECT_NEAR(r.sumAxialVelocity / fluxExact, 1.0, 3e-2);
-  // Profile: u(r) = F (R^2 - r^2) / (4 nu), R^2 = A / pi; within 5 % of the peak (the
-  // staircase moves the wall locally by up to half a voxel).
-  const double r2 = area / std::numbers::pi, umax = o.force * r2 / (4.0 * nu);
-  const double c = 0.5 * 21.0;
-  double err = 0;
-  for (std::size_t cell = 0; cell < r.fluidCells; ++cell) {
-    const double j = static_cast<double>(r.cellOffset[cell] / 22),
-                 i = static_cast<double>(r.cellOffset[cell] % 22);
-    const double rr = (j - c) * (j - c) + (i - c) * (i - c);
-    err = std::max(err, std::abs(r.fields.velocity[0][cell] - o.force * (r2 - rr) / (4.0 * nu)));
-  }
-  EXPECT_LT(err / umax, 5e-2);
+  EXPECT_NEAR(r.sumAxialVelocity / fluxExact, 0.973, 5e-3);
 }
 
 // A random porous box: mass is conserved by bounce-back and by the forcing, and the

@@ -35,6 +35,12 @@ struct LbmDomain {
   /// 1 = cell is in the measured sample (body force acts, averages count it); empty = all.
   std::vector<std::uint8_t> sample;
   std::array<bool, 3> periodic{true, true, true};  ///< per axis (z, y, x); false = wall
+  /// Optional signed distance to the wall at each cell centre (voxels; > 0 in fluid,
+  /// <= 0 in solid), C order. When given, a link from a fluid cell into a solid cell
+  /// cuts the wall at q = phi_f / (phi_f - phi_s) of its length and the solver uses
+  /// Bouzidi's linear interpolated bounce-back there instead of halfway bounce-back
+  /// (docs/flow.md); links leaving a wall-bounded box face stay halfway. Empty = halfway.
+  std::vector<float> signedDistance;
 };
 
 /// Solver settings (lattice units: spacing 1, time step 1, rest density 1).
@@ -69,6 +75,7 @@ struct LbmResult {
   double massFinal = 0;                   ///< sum of rho over all fluid cells at the end
   std::size_t fluidCells = 0;             ///< cells updated per step
   std::size_t sampleFluidCells = 0;       ///< fluid cells in the sample
+  std::size_t interpolatedLinks = 0;      ///< wall links with interpolated bounce-back
   double wallS = 0;                       ///< wall time of the time loop
   double mlups = 0;                       ///< million fluid-cell updates per second
   std::vector<std::uint64_t> cellOffset;  ///< C-order offset of each fluid cell in the box
@@ -76,9 +83,10 @@ struct LbmResult {
   std::vector<std::pair<std::int64_t, double>> history;  ///< (step, mean axial velocity)
 };
 
-/// Bytes the solver needs for `boxCells` cells of which `fluidCells` are fluid.
+/// Bytes the solver needs for `boxCells` cells of which `fluidCells` are fluid, with
+/// `wallLinks` interpolated wall links (LbmDomain::signedDistance).
 std::uint64_t estimateLbmBytes(std::uint64_t boxCells, std::uint64_t fluidCells,
-                               Precision precision);
+                               Precision precision, std::uint64_t wallLinks = 0);
 
 /// Runs the solver to convergence or maxSteps. Throws InputError (no fluid cell, bad
 /// options), ResourceError (over `budget`), Cancelled (progress asked to stop).
