@@ -13,7 +13,10 @@
 #include <atomic>
 #include <chrono>
 #include <exception>
+#include <iostream>
+#include <mutex>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -147,6 +150,42 @@ int runCli(const std::vector<std::string>& args, py::object progress, py::object
   return runReleased(hook, [&] { return app::runCommandLine(args, &hook); });
 }
 
+// std::cout of the command (e.g. `export --json`) into a string. std::cout is
+// process-wide: one capture at a time (the mutex), and output another thread's command
+// prints meanwhile lands in the capture too (docs/python.md says so).
+std::mutex coutCaptureMutex;
+
+class CoutCapture {
+ public:
+  CoutCapture() : lock_(coutCaptureMutex), old_(std::cout.rdbuf(buffer_.rdbuf())) {}
+  ~CoutCapture() {
+    std::cout.flush();
+    std::cout.rdbuf(old_);
+  }
+  CoutCapture(const CoutCapture&) = delete;
+  CoutCapture& operator=(const CoutCapture&) = delete;
+  std::string text() const { return buffer_.str(); }
+
+ private:
+  std::lock_guard<std::mutex> lock_;
+  std::ostringstream buffer_;
+  std::streambuf* old_;
+};
+
+py::tuple runCliCapture(const std::vector<std::string>& args, py::object progress,
+                        py::object message) {
+  PyProgress hook(std::move(progress), std::move(message));
+  std::string text;
+  const int code = runReleased(hook, [&] {
+    CoutCapture capture;
+    const int c = app::runCommandLine(args, &hook);
+    std::cout.flush();
+    text = capture.text();
+    return c;
+  });
+  return py::make_tuple(code, py::bytes(text).attr("decode")("utf-8", "replace"));
+}
+
 py::dict readBedPy(const std::string& path) {
   Bed bed = [&] {
     py::gil_scoped_release nogil;
@@ -265,6 +304,9 @@ PYBIND11_MODULE(_voxpack, m) {
         py::arg("message") = py::none(),
         "Runs the voxpack command line in-process (args[0] is the program name); returns the "
         "exit code. progress(fraction, stage) and message(text) are called with the GIL.");
+  m.def("run_cli_capture", &runCliCapture, py::arg("args"), py::arg("progress") = py::none(),
+        py::arg("message") = py::none(),
+        "As run_cli, and returns (exit code, what the command wrote to std::cout).");
   m.def("read_bed", &readBedPy, py::arg("path"),
         "Reads a bed file into a dict of numpy arrays that own the C++ storage.");
   m.def("write_bed", &writeBedPy, py::arg("path"), py::arg("bed"), py::arg("compression_level") = 4,

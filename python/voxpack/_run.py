@@ -61,12 +61,18 @@ def global_args(threads: Optional[int], memory_limit: Optional[str]) -> list:
 
 
 def run_cli(args: Sequence[str], progress: Optional[Callable] = None,
-            hide: Sequence[str] = ()) -> None:
+            hide: Sequence[str] = (), capture_stdout: bool = False) -> Optional[str]:
     """Runs `voxpack ARGS...` in this process (GIL released). Exit-2 errors raise
     ValueError / OSError with the CLI's message; paths in `hide` (temporary files) are
-    replaced by '<temporary>' in messages."""
+    replaced by '<temporary>' in messages. capture_stdout: returns what the command wrote
+    to std::cout (e.g. `export --json`) instead of letting it reach the process stdout."""
+    text = None
     try:
-        code = _voxpack.run_cli([str(a) for a in args], progress_adapter(progress), _message)
+        if capture_stdout:
+            code, text = _voxpack.run_cli_capture([str(a) for a in args],
+                                                  progress_adapter(progress), _message)
+        else:
+            code = _voxpack.run_cli([str(a) for a in args], progress_adapter(progress), _message)
     except (ValueError, OSError, RuntimeError) as e:
         msg = str(e)
         if not any(h and h in msg for h in hide):
@@ -77,6 +83,7 @@ def run_cli(args: Sequence[str], progress: Optional[Callable] = None,
         raise type(e)(msg) from None
     if code != 0:
         raise RuntimeError(f"voxpack {' '.join(map(str, args[1:]))}: exit code {code}")
+    return text
 
 
 @contextlib.contextmanager
