@@ -183,3 +183,17 @@ def test_export_errors(cli, small_bed_file, tmp_path):
     # A bed without a particle table has no particle surfaces (the CLI's message).
     with pytest.raises(ValueError):
         voxpack.export(voxpack.Bed(bed.indicator), "stl", tmp_path / "q.stl")
+
+
+def test_help_lists_the_options_with_units():
+    flow_doc = voxpack.flow.__doc__
+    for word in ("axis", "periodic", "mirror", "reservoir_layers", "tolerance", "max_steps",
+                 "check_interval", "tau", "field", "csv_dir", "roi_mm", "velocity_mm_s",
+                 "mm/s", "viscosity_pa_s", "Pa s", "density_kg_m3", "kg/m^3",
+                 "particle_diameter_mm", "threads", "progress", "KeyboardInterrupt"):
+        assert word in flow_doc, word
+    export_doc = voxpack.export.__doc__
+    for word in ("stl", "obj", "xdmf", "vtkhdf", "vtk", "tiff", "nrrd", "mha", "csv", "contacts",
+                 "contact_size", "contact_tolerance_mm", "tolerance_mm", "wall", "surface",
+                 "smoothing_voxels", "voxels", "link", "mm"):
+        assert word in export_doc, word
