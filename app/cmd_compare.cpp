@@ -49,6 +49,14 @@ class CompareCommand final : public Command {
                    "/usr/bin/python3)");
     sub.add_option("--figure-script", figureScript_,
                    "figure script to use instead of the built-in make_figures.py");
+    sub.add_flag("--flow", flow_,
+                 "also run the flow solver on every bed (packed region): permeability, "
+                 "tortuosity and wall-flow share against the reference, radial velocity figure");
+    sub.add_option("--flow-tolerance", flowTolerance_,
+                   "flow: stop when the mean velocity changes by less than this per check")
+        ->capture_default_str();
+    sub.add_option("--flow-max-steps", flowMaxSteps_, "flow: stop after this many time steps")
+        ->capture_default_str();
   }
 
   int execute(const GlobalOptions& global) override {
@@ -67,6 +75,15 @@ class CompareCommand final : public Command {
     opt.radialGrid.gridStepMm = radialStepMm_;
     opt.bedRegionFraction = bedFraction_;
     opt.s2Grid.gridStepMm = s2StepMm_;
+    if (flow_) {
+      if (!(flowTolerance_ > 0)) throw UsageError("--flow-tolerance must be positive");
+      if (flowMaxSteps_ < 1) throw UsageError("--flow-max-steps must be at least 1");
+      opt.flow.enabled = true;
+      opt.flow.solver.lbm.tolerance = flowTolerance_;
+      opt.flow.solver.lbm.maxSteps = flowMaxSteps_;
+      opt.flow.solver.lbm.threads = opt.stats.threads;
+      opt.flow.memory = global.memory;
+    }
     std::vector<fs::path> cands(candidates_.begin(), candidates_.end());
     const compare::Comparison c = compare::compareBedFiles(reference_, cands, opt, progress);
 
@@ -90,7 +107,10 @@ class CompareCommand final : public Command {
                           {"s2_step_mm", s2StepMm_},
                           {"bed_fraction", bedFraction_},
                           {"threads", opt.stats.threads},
-                          {"figures", !noFigures_}}},
+                          {"figures", !noFigures_},
+                          {"flow", flow_},
+                          {"flow_tolerance", flowTolerance_},
+                          {"flow_max_steps", flowMaxSteps_}}},
                         {"methods",
                          {{"density",
                            "mean/std of slice packing densities (stats axial block); rel diff = "
@@ -108,7 +128,8 @@ class CompareCommand final : public Command {
     if (!r.warnings.empty() && global.quiet)
       for (const auto& w : r.warnings)
         if (w.find("figures skipped") != std::string::npos) std::cerr << "warning: " << w << '\n';
-    std::cout << compare::formatTable(c) << "summary: " << r.summaryJson.string() << '\n'
+    std::cout << compare::formatTable(c) << compare::flowTextTable(c)
+              << "summary: " << r.summaryJson.string() << '\n'
               << "report:  " << fs::absolute(r.indexHtml).string() << '\n';
     return 0;
   }
@@ -130,6 +151,9 @@ class CompareCommand final : public Command {
   double s2StepMm_ = 0.0;
   double bedFraction_ = 0.5;
   bool noFigures_ = false;
+  bool flow_ = false;
+  double flowTolerance_ = 1e-5;
+  std::int64_t flowMaxSteps_ = 200000;
   std::string python_;
   std::string figureScript_;
 };

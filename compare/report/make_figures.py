@@ -173,6 +173,11 @@ def main():
     fig_curves(beds, rep, out, "mes.csv", "bin_mm", "pdf", "mean empty space (mm)",
                "probability density (1/mm)",
                "Mean-empty-space distribution (cf. paper Fig. 10)", "fig_mes.png")
+    if os.path.exists(os.path.join(rep, "flow.csv")):  # compare --flow
+        fig_curves(beds, rep, out, "flow.csv", "wall_distance_mm",
+                   "axial_velocity_over_superficial", "distance from the wall (mm)",
+                   "axial velocity / superficial velocity",
+                   "Radial profile of the axial velocity (wall channelling)", "fig_flow.png")
     return 0
 
 

@@ -438,6 +438,19 @@ Comparison compareBedFiles(const std::filesystem::path& reference,
     e.stats = stats::computeStats(bed, opt.stats, progress);
     e.shadow = shadowImage(bed);
     e.slice = voidSlice(bed);
+    if (opt.flow.enabled) {
+      progress.report("compare: flow through " + p.filename().string(),
+                      static_cast<double>(index) / static_cast<double>(all.size()));
+      CompareFlowOptions fo = opt.flow;
+      if (!(fo.solver.particleDiameterMm > 0))
+        fo.solver.particleDiameterMm = opt.stats.particleDiameterMm;
+      e.flow = flowRecord(bed, fo, progress);
+      if (e.flow["status"] != "converged")
+        c.warnings.push_back(
+            "flow through " + names[index] + ": " + e.flow["status"].get<std::string>() +
+            (e.flow["status"] == "not_converged" ? " (raise --flow-max-steps or --flow-tolerance)"
+                                                 : ""));
+    }
     if (!(opt.stats.particleDiameterMm > 0)) {
       const double d = number(e.stats, "particle_diameter_mm");
       if (std::isfinite(d) && d > 0) {

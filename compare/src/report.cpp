@@ -33,6 +33,11 @@ constexpr const char* kFigureCaptions[] = {
     "A horizontal slice of the void structure at mid-height, white = void (paper Fig. 8).",
     "Void two-point probability S2 against lag (paper Fig. 9).",
     "Distribution of the mean empty space (paper Fig. 10)."};
+// Drawn only with compare --flow (flow.csv present).
+constexpr const char* kFlowFigure = "fig_flow.png";
+constexpr const char* kFlowCaption =
+    "Radial profile of the axial velocity (superficial, solid counted as zero) over the mean "
+    "superficial velocity against distance from the wall: wall channelling (compare --flow).";
 
 std::string fmt(double v, int digits = 9) {
   if (!std::isfinite(v)) return "nan";
@@ -223,7 +228,7 @@ std::string lastLine(const std::string& text) {
 // Runs the figure script into a private staging folder inside `dir` and moves the PNG
 // files in one by one (rename is atomic); the staging folder is always removed.
 std::vector<fs::path> drawFigures(const fs::path& dir, const ReportOptions& options,
-                                  std::vector<std::string>& warnings) {
+                                  std::vector<std::string>& warnings, bool flow) {
   std::vector<fs::path> made;
   std::error_code ec;
   if (!fs::exists(options.python, ec)) {
@@ -263,7 +268,9 @@ std::vector<fs::path> drawFigures(const fs::path& dir, const ReportOptions& opti
                        ": figures skipped (numbers and CSV files are complete)");
     return made;
   }
-  for (const char* name : kFigureNames) {
+  std::vector<const char*> names(std::begin(kFigureNames), std::end(kFigureNames));
+  if (flow) names.push_back(kFlowFigure);
+  for (const char* name : names) {
     const fs::path src = stage / name;
     if (!fs::exists(src, ec)) {
       warnings.push_back(std::string("figure ") + name + " was not drawn");
@@ -383,6 +390,7 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
     ++n;
   }
   h << "</table>\n";
+  h << flowHtmlTable(c);
 
   if (!warnings.empty()) {
     h << "<h2>Warnings</h2>\n<ul class=\"warn\">\n";
@@ -403,6 +411,11 @@ std::string htmlReport(const Comparison& c, const fs::path& dir,
       << htmlEscape(kFigureCaptions[k]) << "\" src=\"data:image/png;base64," << base64(readFile(p))
       << "\">\n<figcaption>" << htmlEscape(kFigureCaptions[k]) << "</figcaption></figure>\n";
   }
+  for (const auto& f : figures)
+    if (f.filename() == kFlowFigure)
+      h << "<figure><img id=\"fig_flow\" alt=\"" << htmlEscape(kFlowCaption)
+        << "\" src=\"data:image/png;base64," << base64(readFile(f)) << "\">\n<figcaption>"
+        << htmlEscape(kFlowCaption) << "</figcaption></figure>\n";
   h << "<p>Data files: summary.json, table.csv, beds.csv, axial.csv, radial.csv, s2.csv, "
        "mes.csv, shadow_N.txt, slice_N.txt.</p>\n";
   // Records each figure's decoded size on the page, so a headless browser check can read
@@ -486,6 +499,7 @@ nlohmann::json summaryJson(const Comparison& c, const nlohmann::json& extras) {
   }
   j["candidate_stats"] = nlohmann::json::object();
   for (const auto& e : c.candidates) j["candidate_stats"][e.name] = e.stats;
+  if (hasFlow(c)) j["flow"] = flowSummary(c);
   j["warnings"] = c.warnings;
   sanitizeNonFinite(j);
   return j;
@@ -551,10 +565,13 @@ ReportResult writeReport(const fs::path& dir, const Comparison& c, const ReportO
     writeTextFileAtomic(dir / ("slice_" + std::to_string(n) + ".txt"), imageText(e->slice));
     ++n;
   }
+  if (hasFlow(c)) writeTextFileAtomic(dir / "flow.csv", flowProfileCsv(c));
   progress.report("compare: report", 0.3);
-  if (options.figures) r.figures = drawFigures(dir, options, r.warnings);
+  if (options.figures) r.figures = drawFigures(dir, options, r.warnings, hasFlow(c));
   // A figure left from an earlier run in the same folder would not match these numbers.
-  for (const char* name : kFigureNames) {
+  std::vector<const char*> stale(std::begin(kFigureNames), std::end(kFigureNames));
+  stale.push_back(kFlowFigure);
+  for (const char* name : stale) {
     bool made = false;
     for (const auto& f : r.figures) made = made || f.filename() == name;
     std::error_code ec;

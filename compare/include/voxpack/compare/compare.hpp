@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "voxpack/compare/distances.hpp"
+#include "voxpack/compare/flow_compare.hpp"
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/progress.hpp"
 #include "voxpack/stats/stats.hpp"
@@ -54,6 +55,8 @@ struct CompareOptions {
   CurveRmseOptions radialGrid;
   /// Common lag grid (mm) for the S2 RMSE; step <= 0 = coarser bed's.
   CurveRmseOptions s2Grid;
+  /// Flow part (compare --flow): off by default.
+  CompareFlowOptions flow;
 };
 
 /// Distances of one candidate's statistics to the reference's (NaN when undefined).
@@ -129,6 +132,8 @@ struct BedEntry {
   /// The ingest calibration of the bed's provenance ("calibration": density_bias, ...),
   /// or null when the bed has none.
   nlohmann::json calibration = nullptr;
+  /// The flow record of the packed region (flowRecord), or null without --flow.
+  nlohmann::json flow = nullptr;
 };
 
 /// The band of the reference's true density implied by an ingest calibration: the mean

@@ -67,17 +67,18 @@ struct LbmFields {
 struct LbmResult {
   FlowStatus status = FlowStatus::NotConverged;  ///< how the run ended
   std::int64_t steps = 0;                        ///< time steps done
-  double residual = 0.0;                  ///< last relative change of the mean axial velocity
-  double meanAxialVelocity = 0;           ///< sum of u_axis over sample fluid cells / sample cells
-  double sumAxialVelocity = 0;            ///< sum of u_axis over sample fluid cells
-  double sumSpeed = 0;                    ///< sum of |u| over sample fluid cells
-  double massInitial = 0;                 ///< sum of rho over all fluid cells at the start
-  double massFinal = 0;                   ///< sum of rho over all fluid cells at the end
-  std::size_t fluidCells = 0;             ///< cells updated per step
-  std::size_t sampleFluidCells = 0;       ///< fluid cells in the sample
-  std::size_t interpolatedLinks = 0;      ///< wall links with interpolated bounce-back
-  double wallS = 0;                       ///< wall time of the time loop
-  double mlups = 0;                       ///< million fluid-cell updates per second
+  double residual = 0.0;              ///< last relative change of the mean axial velocity
+  double meanAxialVelocity = 0;       ///< sum of u_axis over sample fluid cells / sample cells
+  double sumAxialVelocity = 0;        ///< sum of u_axis over sample fluid cells
+  double sumSpeed = 0;                ///< sum of |u| over sample fluid cells
+  double massInitial = 0;             ///< sum of rho over all fluid cells at the start
+  double massFinal = 0;               ///< sum of rho over all fluid cells at the end
+  std::size_t fluidCells = 0;         ///< cells updated per step
+  std::size_t sampleFluidCells = 0;   ///< fluid cells in the sample
+  std::size_t interpolatedLinks = 0;  ///< wall links with interpolated bounce-back
+  int threads = 1;   ///< threads the kernel ran on (<= options; >= 8 blocks of 4096 cells each)
+  double wallS = 0;  ///< wall time of the time loop
+  double mlups = 0;  ///< million fluid-cell updates per second
   std::vector<std::uint64_t> cellOffset;  ///< C-order offset of each fluid cell in the box
   LbmFields fields;                       ///< final density and velocity (cell order)
   std::vector<std::pair<std::int64_t, double>> history;  ///< (step, mean axial velocity)
