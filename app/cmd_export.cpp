@@ -44,6 +44,10 @@ class ExportCommand final : public Command {
                    "surfaces closer than this count as touching (default: one voxel)");
     sub.add_option("--tolerance-mm", surf_.toleranceMm,
                    "chord tolerance of the tessellation (default: d/500)");
+    sub.add_option("--wall-contacts", wallContacts_,
+                   "stl/obj: wall parts that take contacts: all, side (round wall only: open "
+                   "column ends for CFD) or none")
+        ->capture_default_str();
     sub.add_flag("--no-wall", noWall_, "stl/obj: leave out the container wall solid");
     sub.add_flag("--surface", surface_,
                  "stl/obj: smoothed iso-surface of the indicator (imaged beds) instead of the "
@@ -93,6 +97,7 @@ class ExportCommand final : public Command {
           } else {
             surf_.contacts = parseContactTreatment(contacts_);
             surf_.wall = !noWall_;
+            surf_.wallContacts = parseWallContacts(wallContacts_);
             surf_.threads = threads;
             r = particleSurfaces(bed, surf_, progress);
           }
@@ -148,7 +153,7 @@ class ExportCommand final : public Command {
 
  private:
   std::string input_, format_, output_;
-  std::string contacts_ = "none";
+  std::string contacts_ = "none", wallContacts_ = "all";
   SurfaceOptions surf_;
   IsoSurfaceOptions iso_;
   bool noWall_ = false, surface_ = false, link_ = false, json_ = false;

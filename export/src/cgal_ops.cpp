@@ -8,8 +8,17 @@
 #include <CGAL/Polygon_mesh_processing/clip.h>
 #include <CGAL/Polygon_mesh_processing/corefinement.h>
 #include <CGAL/Polygon_mesh_processing/intersection.h>
+#include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/repair.h>
+#include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Surface_mesh.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <unordered_map>
 
 #include "voxpack/core/errors.hpp"
 
@@ -60,7 +69,108 @@ TriMesh fromCgal(const SM<K>& m) {
 
 }  // namespace
 
-TriMesh unionOf(const std::vector<TriMesh>& meshes) {
+TriMesh weldAndRepair(const TriMesh& in, double weldMm, RepairReport* report) {
+  RepairReport rep;
+  rep.verticesIn = in.vertices.size();
+  rep.trianglesIn = in.triangles.size();
+  // 1. Weld: vertices closer than weldMm become one (the first in index order, so the
+  //    result does not depend on threads). A hash grid of cell weldMm finds candidates.
+  std::vector<std::uint32_t> remap(in.vertices.size());
+  TriMesh out;
+  if (weldMm > 0) {
+    struct CellHash {
+      std::size_t operator()(const std::array<std::int64_t, 3>& c) const {
+        return static_cast<std::size_t>(c[0] * 73856093LL ^ c[1] * 19349663LL ^ c[2] * 83492791LL);
+      }
+    };
+    std::unordered_map<std::array<std::int64_t, 3>, std::vector<std::uint32_t>, CellHash> grid;
+    grid.reserve(in.vertices.size());
+    auto cellOf = [&](const Vec3& p) {
+      return std::array<std::int64_t, 3>{static_cast<std::int64_t>(std::floor(p.x() / weldMm)),
+                                         static_cast<std::int64_t>(std::floor(p.y() / weldMm)),
+                                         static_cast<std::int64_t>(std::floor(p.z() / weldMm))};
+    };
+    for (std::size_t i = 0; i < in.vertices.size(); ++i) {
+      const Vec3& p = in.vertices[i];
+      const auto c = cellOf(p);
+      std::int64_t found = -1;
+      for (int dz = -1; dz <= 1 && found < 0; ++dz)
+        for (int dy = -1; dy <= 1 && found < 0; ++dy)
+          for (int dx = -1; dx <= 1 && found < 0; ++dx) {
+            auto it = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
+            if (it == grid.end()) continue;
+            for (std::uint32_t j : it->second)
+              if ((out.vertices[j] - p).norm() <= weldMm) {
+                found = j;
+                break;
+              }
+          }
+      if (found >= 0) {
+        remap[i] = static_cast<std::uint32_t>(found);
+        ++rep.weldedVertices;
+      } else {
+        remap[i] = static_cast<std::uint32_t>(out.vertices.size());
+        grid[c].push_back(remap[i]);
+        out.vertices.push_back(p);
+      }
+    }
+  } else {
+    for (std::size_t i = 0; i < in.vertices.size(); ++i) remap[i] = static_cast<std::uint32_t>(i);
+    out.vertices = in.vertices;
+  }
+  // 2. Polygon soup: faces collapsed by the weld are dropped, then CGAL's soup repair
+  //    removes duplicated faces and splits non-manifold vertices, and the soup is oriented
+  //    and turned back into a mesh.
+  std::vector<Inexact::Point_3> points;
+  points.reserve(out.vertices.size());
+  for (const Vec3& p : out.vertices) points.emplace_back(p.x(), p.y(), p.z());
+  std::vector<std::vector<std::size_t>> faces;
+  faces.reserve(in.triangles.size());
+  for (const auto& t : in.triangles) {
+    const std::size_t a = remap[t[0]], b = remap[t[1]], c = remap[t[2]];
+    if (a == b || b == c || a == c) {
+      ++rep.collapsedTriangles;
+      continue;
+    }
+    faces.push_back({a, b, c});
+  }
+  // Pairs of the same triangle with opposite orientation are a zero-volume fin: both go.
+  {
+    std::map<std::array<std::size_t, 3>, std::vector<std::size_t>> byKey;
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      std::array<std::size_t, 3> k{faces[f][0], faces[f][1], faces[f][2]};
+      std::sort(k.begin(), k.end());
+      byKey[k].push_back(f);
+    }
+    std::vector<char> drop(faces.size(), 0);
+    for (const auto& [k, fs] : byKey)
+      if (fs.size() > 1)
+        for (std::size_t f : fs) drop[f] = 1;
+    std::vector<std::vector<std::size_t>> kept;
+    kept.reserve(faces.size());
+    for (std::size_t f = 0; f < faces.size(); ++f)
+      if (drop[f])
+        ++rep.finTriangles;
+      else
+        kept.push_back(std::move(faces[f]));
+    faces = std::move(kept);
+  }
+  PMP::repair_polygon_soup(points, faces);
+  PMP::orient_polygon_soup(points, faces);
+  SM<Inexact> sm;
+  PMP::polygon_soup_to_polygon_mesh(points, faces, sm);
+  // 3. Zero-area triangles with distinct vertices (exactly collinear after rounding):
+  //    CGAL collapses or flips them away.
+  const std::size_t before = sm.number_of_faces();
+  PMP::remove_degenerate_faces(sm);
+  sm.collect_garbage();
+  rep.degenerateRemoved = before > sm.number_of_faces() ? before - sm.number_of_faces() : 0;
+  TriMesh result = fromCgal<Inexact>(sm);
+  if (report) *report = rep;
+  return result;
+}
+
+TriMesh unionOf(const std::vector<TriMesh>& meshes, double weldMm, RepairReport* report) {
   if (meshes.empty()) return {};
   std::vector<SM<Exact>> level;
   level.reserve(meshes.size());
@@ -79,7 +189,7 @@ TriMesh unionOf(const std::vector<TriMesh>& meshes) {
     if (level.size() % 2) next.push_back(std::move(level.back()));
     level = std::move(next);
   }
-  return fromCgal<Exact>(level[0]);
+  return weldAndRepair(fromCgal<Exact>(level[0]), weldMm, report);
 }
 
 TriMesh clipByPlane(const TriMesh& mesh, const Vec3& p, const Vec3& n) {

@@ -4,7 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <string>
+
+#include "voxpack/core/errors.hpp"
 
 namespace voxpack::exporter {
 namespace {
@@ -91,11 +95,60 @@ bool pairContact(const PosedParticle& A, const PosedParticle& B, double tol, dou
   return true;
 }
 
-bool wallContact(const PosedParticle& A, const packer::Container& wall, double tol, Contact& c) {
+// One part of a container wall: its distance (> 0 inside) and inward normal.
+struct WallSurface {
+  WallPart part = WallPart::Whole;
+  std::function<double(const Vec3&)> distance;
+  std::function<Vec3(const Vec3&)> inward;
+};
+
+// Cylinders and boxes split into side(s), floor and lid, so a particle gets one contact
+// per part it touches (the container's own wall distance is the minimum over the parts
+// and would give only the nearest one); other containers stay whole.
+std::vector<WallSurface> wallSurfaces(const packer::Container& wall, WallContacts which) {
+  std::vector<WallSurface> out;
+  if (which == WallContacts::None) return out;
+  const packer::BoundsMm b = wall.boundsMm();
+  const bool isBox = wall.spec().rfind("box:", 0) == 0;
+  double cx = 0, cy = 0, r = 0;
+  const bool isCylinder = wall.cylinderAxis(cx, cy, r);
+  if (!isBox && !isCylinder) {
+    out.push_back({WallPart::Whole, [&wall](const Vec3& x) { return wall.wallDistanceMm(x); },
+                   [&wall](const Vec3& x) { return wall.inwardNormal(x); }});
+    return out;
+  }
+  if (isCylinder) {
+    out.push_back({WallPart::Side,
+                   [cx, cy, r](const Vec3& x) { return r - std::hypot(x.x() - cx, x.y() - cy); },
+                   [cx, cy](const Vec3& x) {
+                     const Vec3 radial(x.x() - cx, x.y() - cy, 0);
+                     const double rho = radial.norm();
+                     return rho > 0 ? Vec3(-radial / rho) : Vec3(Vec3::UnitX());
+                   }});
+  } else {
+    for (int axis = 0; axis < 2; ++axis) {
+      const double lo = b.min[axis], hi = b.max[axis];
+      out.push_back({WallPart::Side, [axis, lo](const Vec3& x) { return x[axis] - lo; },
+                     [axis](const Vec3&) { return Vec3(Vec3::Unit(axis)); }});
+      out.push_back({WallPart::Side, [axis, hi](const Vec3& x) { return hi - x[axis]; },
+                     [axis](const Vec3&) { return Vec3(-Vec3::Unit(axis)); }});
+    }
+  }
+  if (which == WallContacts::All) {
+    const double lo = b.min.z(), hi = b.max.z();
+    out.push_back({WallPart::Floor, [lo](const Vec3& x) { return x.z() - lo; },
+                   [](const Vec3&) { return Vec3(Vec3::UnitZ()); }});
+    out.push_back({WallPart::Lid, [hi](const Vec3& x) { return hi - x.z(); },
+                   [](const Vec3&) { return Vec3(-Vec3::UnitZ()); }});
+  }
+  return out;
+}
+
+bool wallContact(const PosedParticle& A, const WallSurface& wall, double tol, Contact& c) {
   double best = std::numeric_limits<double>::infinity();
   Vec3 bestPoint = Vec3::Zero();
   for (const Vec3& v : A.surface.vertices) {
-    const double d = wall.wallDistanceMm(v);
+    const double d = wall.distance(v);
     if (d < best) {
       best = d;
       bestPoint = v;
@@ -104,19 +157,26 @@ bool wallContact(const PosedParticle& A, const packer::Container& wall, double t
   if (best > tol + 0.1 * A.shape->boundingRadiusMm()) return false;
   // The mesh vertex only seeds: the gap is the wall distance of the exact surface point
   // nearest the wall.
-  const Vec3 p = minimiseOnSurface(
-      A, project(A, bestPoint), [&](const Vec3& x) { return wall.wallDistanceMm(x); },
-      [&](const Vec3& x) { return wall.inwardNormal(x); }, 0.5 * A.shape->boundingRadiusMm());
-  const double gap = wall.wallDistanceMm(p);
+  const Vec3 p = minimiseOnSurface(A, project(A, bestPoint), wall.distance, wall.inward,
+                                   0.5 * A.shape->boundingRadiusMm());
+  const double gap = wall.distance(p);
   if (gap > tol) return false;
-  const Vec3 out = -wall.inwardNormal(p).normalized();
+  const Vec3 out = -wall.inward(p).normalized();
   c.gapMm = gap;
   c.normal = out;
   c.pointMm = p + 0.5 * gap * out;
+  c.wall = wall.part;
   return true;
 }
 
 }  // namespace
+
+WallContacts parseWallContacts(const std::string& name) {
+  if (name == "all") return WallContacts::All;
+  if (name == "side") return WallContacts::Side;
+  if (name == "none") return WallContacts::None;
+  throw UsageError("--wall-contacts: unknown value '" + name + "' (expected all, side, none)");
+}
 
 double signedDistanceMm(const PosedParticle& p, const Vec3& xMm) {
   return p.shape->signedDistanceMm(toBody(p, xMm));
@@ -133,6 +193,8 @@ std::vector<Contact> findContacts(const std::vector<PosedParticle>& particles,
   }
   const double tol = std::max(0.0, options.toleranceMm);
   const double margin = 0.1 * rmin;
+  const std::vector<WallSurface> walls =
+      wall ? wallSurfaces(*wall, options.wallContacts) : std::vector<WallSurface>{};
   std::vector<std::vector<Contact>> per(particles.size());
 #pragma omp parallel for schedule(dynamic, 8) num_threads(std::max(1, options.threads))
   for (std::int64_t a = 0; a < n; ++a) {
@@ -148,11 +210,11 @@ std::vector<Contact> findContacts(const std::vector<PosedParticle>& particles,
       c.b = b;
       if (pairContact(A, B, tol, margin, c)) out.push_back(c);
     }
-    if (wall) {
+    for (const WallSurface& w : walls) {
       Contact c;
       c.a = a;
       c.b = -1;
-      if (wallContact(A, *wall, tol, c)) out.push_back(c);
+      if (wallContact(A, w, tol, c)) out.push_back(c);
     }
   }
   std::vector<Contact> all;

@@ -3,6 +3,7 @@
 // cap keeps every shell closed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -81,6 +82,31 @@ TEST(Contacts, WallContact) {
   EXPECT_NEAR(c2[1].normal.z(), -1.0, 1e-6);
 }
 
+// A sphere in the corner of floor and round wall touches both: one contact per wall part,
+// each with its own normal (the container's single wall distance would give only one).
+TEST(Contacts, CornerParticleGetsOneContactPerWallPart) {
+  const auto wall = packer::parseContainer("cylinder:d=11,h=11");
+  const std::vector<PosedParticle> ps = {make("sphere:d=3", {0, -4, 1.5})};
+  auto c = findContacts(ps, wall.get(), {0.05, 1});
+  ASSERT_EQ(c.size(), 2u);
+  std::sort(c.begin(), c.end(), [](const Contact& x, const Contact& y) { return x.wall < y.wall; });
+  EXPECT_EQ(c[0].wall, WallPart::Side);
+  EXPECT_NEAR(c[0].normal.y(), -1.0, 1e-6);
+  EXPECT_NEAR(c[0].pointMm.z(), 1.5, 1e-4);
+  EXPECT_EQ(c[1].wall, WallPart::Floor);
+  EXPECT_NEAR(c[1].normal.z(), -1.0, 1e-9);
+  EXPECT_NEAR(c[1].gapMm, 0.0, 1e-6);
+  // Open column ends (CFD inlet/outlet): only the round wall takes contacts.
+  const auto side = findContacts(ps, wall.get(), {0.05, 1, WallContacts::Side});
+  ASSERT_EQ(side.size(), 1u);
+  EXPECT_EQ(side[0].wall, WallPart::Side);
+  EXPECT_TRUE(findContacts(ps, wall.get(), {0.05, 1, WallContacts::None}).empty());
+  // A box: a sphere in the corner of two vertical faces and the floor touches three.
+  const auto box = packer::parseContainer("box:x=10,y=10,z=10");
+  const auto cb = findContacts({make("sphere:d=3", {-3.5, 3.5, 1.5})}, box.get(), {0.05, 1});
+  EXPECT_EQ(cb.size(), 3u);
+}
+
 // A chain of touching spheres and a cylinder on top, in a column: a bed without voxels
 // (the surfaces need only the particle table and the container).
 Bed chainBed() {
@@ -118,7 +144,10 @@ TEST(Treatments, NoneTouchesGapSeparates) {
       EXPECT_FALSE(meshesIntersect(gap.solids[a].mesh, gap.solids[b].mesh)) << a << " " << b;
   }
   EXPECT_EQ(gap.report["particle_contacts"], 3);
-  EXPECT_EQ(gap.report["wall_contacts"], 4);  // the four spheres stand on the floor
+  // The four spheres stand on the floor, and the one at y = -4 also touches the round wall.
+  EXPECT_EQ(gap.report["wall_contacts"], 5);
+  EXPECT_EQ(gap.report["wall_contacts_by_part"]["floor"], 4);
+  EXPECT_EQ(gap.report["wall_contacts_by_part"]["side"], 1);
 }
 
 TEST(Treatments, BridgeAndOverlapGiveOneClosedSolid) {

@@ -10,6 +10,7 @@
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/progress.hpp"
+#include "voxpack/export/contacts.hpp"
 #include "voxpack/export/trimesh.hpp"
 
 namespace voxpack::exporter {
@@ -34,7 +35,9 @@ struct SurfaceOptions {
                                    ///< bridge 0.2, cap 0.2)
   double contactToleranceMm = -1;  ///< gap counted as contact; < 0 = the largest voxel size
   bool wall = true;                ///< write the container wall as its own solid
-  int threads = 1;                 ///< worker threads
+  WallContacts wallContacts = WallContacts::All;  ///< wall parts that take contacts
+  double weldMm = -1;  ///< bridge/overlap union weld distance; < 0 = max(1e-3 tol, 1e-6 extent)
+  int threads = 1;     ///< worker threads
 };
 
 /// The solids and what was done.
