@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "command.hpp"
@@ -14,6 +15,7 @@
 #include "voxpack/core/progress.hpp"
 #include "voxpack/core/version.hpp"
 #include "voxpack/ingest/ingest.hpp"
+#include "voxpack/ingest/stream.hpp"
 
 namespace voxpack::app {
 namespace {
@@ -106,6 +108,10 @@ class IngestCommand final : public Command {
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
     sub.add_flag("--json", json_, "print the ingest report as JSON on stdout");
+    sub.add_option("--slab-voxels", slabPlanes_,
+                   "stream in z-slabs this many voxels (planes) thick, whatever the memory "
+                   "(default: stream only past --memory-limit; see docs/scale.md)")
+        ->check(CLI::PositiveNumber);
   }
 
   int execute(const GlobalOptions& global) override {
@@ -164,6 +170,16 @@ class IngestCommand final : public Command {
       requireWithinBudget(estimateIngestPeakBytes(l, o_), global.memory, what);
     };
     CommandProgress progress(global);
+    // The header alone decides: in memory when the pipeline fits the budget, else by
+    // z-slab, else refused before any voxel is read.
+    std::optional<VolumeHeader> header;
+    try {
+      header = readVolumeHeader(input_, o_.read);
+    } catch (const Error&) {
+      // Not read here: the in-memory reader below reports the problem as it always has.
+    }
+    if (header)
+      if (int rc = 0; maybeStream(*header, global, progress, rc)) return rc;
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
     writeBed(out, r.bed);
@@ -194,6 +210,61 @@ class IngestCommand final : public Command {
   }
 
  private:
+  // Runs the streamed path when the in-memory one does not fit (or --slab-voxels asks);
+  // false: run in memory. Throws ResourceError when neither fits.
+  bool maybeStream(const VolumeHeader& h, const GlobalOptions& global, Progress& progress,
+                   int& rc) {
+    const Lattice& l = h.lattice;
+    const std::string what = "ingest of " + input_ + " (" + std::to_string(l.dims[0]) + " x " +
+                             std::to_string(l.dims[1]) + " x " + std::to_string(l.dims[2]) +
+                             " voxels)";
+    checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
+                    static_cast<std::uint64_t>(l.dims[2]), 64},
+                   what);
+    const std::uint64_t inMemory = estimateIngestPeakBytes(l, o_);
+    const bool fits = global.memory.fits(inMemory);
+    if (fits && slabPlanes_ == 0) return false;
+    const std::string why = streamedIngestUnsupported(o_, h);
+    if (!why.empty()) {
+      if (slabPlanes_ > 0 && fits) throw UsageError("--slab-voxels: no streamed ingest for " + why);
+      requireWithinBudget(inMemory, global.memory,
+                          what + " in memory (no streamed path for " + why + ")");
+    }
+    const std::int64_t planes = streamedSlabPlanes(h, o_, global.memory, slabPlanes_);
+    requireWithinBudget(
+        estimateStreamedIngestBytes(h, o_, std::max<std::int64_t>(planes, 1)), global.memory,
+        what + " streamed in slabs of " + std::to_string(std::max<std::int64_t>(planes, 1)) +
+            " planes (+ " + std::to_string(streamedHaloPlanes(o_, l.nz())) +
+            " halo planes each side)");
+    if (!global.quiet)
+      progress.message("streaming: in memory would need about " + formatBytes(inMemory) +
+                       "; slabs of " + std::to_string(planes) + " planes, about " +
+                       formatBytes(estimateStreamedIngestBytes(h, o_, planes)));
+    const StreamedIngestResult r =
+        ingestVolumeStreamed(h, o_, output_, planes, resolveThreads(global.threads), progress,
+                             {{"command_line", global.commandLine}});
+    rc = 0;
+    if (json_) {
+      std::cout << r.report.dump(2) << '\n';
+      return true;
+    }
+    if (!global.quiet) {
+      std::cout << "wrote " << output_ << ": " << l.dims[0] << " x " << l.dims[1] << " x "
+                << l.dims[2] << " voxels of " << std::setprecision(4) << l.spacingMm[2]
+                << " mm, threshold " << r.thresholdUsed << " ("
+                << (r.voidBright ? "void bright" : "void dark") << "), porosity "
+                << r.report["porosity"].dump();
+      if (r.column.found)
+        std::cout << ", column radius " << r.column.radiusMm << " mm at (" << r.column.axisXMm
+                  << ", " << r.column.axisYMm << ")";
+      else
+        std::cout << ", no column mask";
+      std::cout << " (streamed)\n";
+    }
+    return true;
+  }
+
+  std::int64_t slabPlanes_ = 0;
   std::string input_, output_;
   std::string void_ = "auto", threshold_ = "auto", column_ = "auto", denoise_ = "median",
               bias_ = "none", noise_ = "auto";

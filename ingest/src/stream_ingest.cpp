@@ -1,0 +1,469 @@
+// The streamed ingest path: plan (what streams, the halo, the slab size under the budget),
+// a first pass for the threshold (exact value histogram of the denoised image), and a
+// second pass that thresholds, cleans up and writes each slab. docs/scale_ingest.md.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <optional>
+#include <unordered_map>
+
+#include "stream_detail.hpp"
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/errors.hpp"
+#include "voxpack/core/json_util.hpp"
+#include "voxpack/core/version.hpp"
+#include "voxpack/ingest/segment.hpp"
+#include "voxpack/ingest/stream.hpp"
+
+namespace voxpack::ingest {
+namespace {
+
+using namespace stream_detail;
+
+// Distinct grey values the first pass keeps exactly (uint8/uint16 inputs stay far below;
+// a float image with more falls back to a second pass over Otsu's bins).
+constexpr std::size_t kMaxDistinctValues = std::size_t{1} << 20;
+// Resident bytes of the process before any volume (libraries, ITK factories, HDF5).
+constexpr std::uint64_t kProcessBaseBytes = std::uint64_t{64} << 20;
+
+std::int64_t denoiseHalo(const IngestOptions& o) {
+  if (o.denoise == DenoiseMethod::Median) return 1;
+  if (o.denoise == DenoiseMethod::MedianBox) return o.medianRadiusVoxels;
+  return 0;
+}
+
+// A component of at most m voxels spans at most m planes; one more plane keeps the cut
+// planes (counted as border by the flood fill) out of its reach.
+std::int64_t cleanupHalo(std::size_t m, std::int64_t nz) {
+  return m == 0 ? 0 : static_cast<std::int64_t>(std::min<std::uint64_t>(m + 1, nz));
+}
+
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+const char* denoiseName(DenoiseMethod d) {
+  return d == DenoiseMethod::Median      ? "median"
+         : d == DenoiseMethod::MedianBox ? "median-box"
+         : d == DenoiseMethod::Curvature ? "curvature"
+                                         : "none";
+}
+const char* thresholdName(ThresholdMethod t) {
+  return t == ThresholdMethod::Otsu     ? "otsu"
+         : t == ThresholdMethod::KMeans ? "kmeans"
+         : t == ThresholdMethod::Manual ? "manual"
+         : t == ThresholdMethod::Volume ? "volume"
+                                        : "auto";
+}
+
+nlohmann::json latticeJson(const Lattice& l) {
+  return {{"dims", {l.dims[0], l.dims[1], l.dims[2]}},
+          {"spacing_mm", {l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}},
+          {"origin_mm", {l.originMm[0], l.originMm[1], l.originMm[2]}}};
+}
+
+// The denoised image over planes [a, b): read with the filter's halo (clipped at the
+// volume), filtered, cropped. Planes within the halo of a cut are wrong and dropped; at
+// the volume's own faces the filter clamps exactly as on the whole volume.
+Grid<float> denoisedPlanes(const VolumeHeader& h, const IngestOptions& o, std::int64_t a,
+                           std::int64_t b, int threads) {
+  const std::int64_t hd = denoiseHalo(o), nz = h.lattice.nz();
+  const std::int64_t ra = std::max<std::int64_t>(0, a - hd), rb = std::min(nz, b + hd);
+  Grid<float> img = readVolumeSlab(h, ra, rb);
+  if (o.denoise == DenoiseMethod::Median) img = crossMedianFilter(img, threads);
+  if (o.denoise == DenoiseMethod::MedianBox) img = medianFilter(img, o.medianRadiusVoxels, threads);
+  if (ra == a && rb == b) return img;
+  return cropPlanes(img, a - ra, b - ra);
+}
+
+// Otsu's bins of segment.cpp's otsuThreshold: the same index expression per value.
+std::size_t otsuBin(float v, float lo, double scale, int bins) {
+  return std::min<std::size_t>(static_cast<std::size_t>((v - lo) * scale),
+                               static_cast<std::size_t>(bins - 1));
+}
+
+// segment.cpp's otsuThreshold from its histogram (the bin counts are integers, exact in
+// double below 2^53, so the sums equal the in-memory ones).
+double otsuFromBins(const std::vector<double>& h, float lo, float hi, std::uint64_t total) {
+  if (!(hi > lo)) return lo;
+  const int bins = static_cast<int>(h.size());
+  const double scale = bins / (static_cast<double>(hi) - lo);
+  double sumAll = 0.0;
+  for (int b = 0; b < bins; ++b) sumAll += b * h[static_cast<std::size_t>(b)];
+  double w0 = 0.0, sum0 = 0.0, best = -1.0;
+  int bestBin = 0;
+  for (int b = 0; b < bins - 1; ++b) {
+    w0 += h[static_cast<std::size_t>(b)];
+    sum0 += b * h[static_cast<std::size_t>(b)];
+    const double w1 = static_cast<double>(total) - w0;
+    if (w0 <= 0.0 || w1 <= 0.0) continue;
+    const double d = sum0 / w0 - (sumAll - sum0) / w1;
+    const double between = w0 * w1 * d * d;
+    if (between > best) {
+      best = between;
+      bestBin = b;
+    }
+  }
+  return lo + (bestBin + 1) / scale;
+}
+
+// segment.cpp's kmeansThreshold on exact value counts. Class sums are count x value: the
+// same numbers as the in-memory running sums whenever those are exact (integer grey
+// values, as from uint8/uint16 files, below 2^53); for float images they may differ in
+// the last bits.
+double kmeansFromCounts(const std::vector<std::pair<float, std::uint64_t>>& counts, float lo,
+                        float hi) {
+  double t = 0.5 * (static_cast<double>(lo) + hi);
+  for (int it = 0; it < 100; ++it) {
+    double s0 = 0, s1 = 0;
+    std::uint64_t n0 = 0, n1 = 0;
+    for (const auto& [v, c] : counts) {
+      if (v <= t) {
+        s0 += static_cast<double>(c) * v;
+        n0 += c;
+      } else {
+        s1 += static_cast<double>(c) * v;
+        n1 += c;
+      }
+    }
+    if (n0 == 0 || n1 == 0) break;
+    const double next = 0.5 * (s0 / static_cast<double>(n0) + s1 / static_cast<double>(n1));
+    if (std::abs(next - t) <= 1e-6 * (std::abs(hi - lo) + 1e-30)) {
+      t = next;
+      break;
+    }
+    t = next;
+  }
+  return t;
+}
+
+void checkCancel(Progress& progress) {
+  if (progress.cancelled()) throw Cancelled("ingest cancelled");
+}
+
+}  // namespace
+
+std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader& h) {
+  std::vector<std::string> why;
+  if (h.source.kind == StreamSource::Kind::None)
+    why.push_back("the input (" + h.source.whyNot + ")");
+  if (o.labels) why.push_back("watershed labels (--labels)");
+  if (o.n4) why.push_back("N4 bias correction (--bias-correction n4)");
+  if (o.denoise == DenoiseMethod::Curvature)
+    why.push_back(
+        "curvature diffusion (ITK scales its conductance by the whole image's "
+        "gradient; use --denoise median or median-box)");
+  if (o.resampleMm > 0.0) why.push_back("--resample");
+  if (o.calibrationRuns > 0) why.push_back("--calibrate");
+  if (o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume)
+    why.push_back(
+        "the volume-preserving threshold (--threshold auto/volume needs the column "
+        "core and order statistics of the whole image; use --threshold otsu, kmeans "
+        "or a value)");
+  if (o.column == ColumnMode::Auto)
+    why.push_back("the automatic column fit (--column auto; give --column CX,CY,R or none)");
+  std::string s;
+  for (const auto& w : why) s += (s.empty() ? "" : "; ") + w;
+  return s;
+}
+
+std::int64_t streamedHaloPlanes(const IngestOptions& o, std::int64_t nz) {
+  return denoiseHalo(o) + cleanupHalo(o.maxSpeckVoxels, nz) + cleanupHalo(o.maxHoleVoxels, nz);
+}
+
+std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOptions& o,
+                                          std::int64_t slabPlanes) {
+  const Lattice& l = h.lattice;
+  const auto plane = static_cast<std::uint64_t>(l.ny()) * static_cast<std::uint64_t>(l.nx());
+  const auto nz = l.nz();
+  const std::int64_t t = std::clamp<std::int64_t>(slabPlanes, 1, nz);
+  const auto read = static_cast<std::uint64_t>(std::min(nz, t + 2 * streamedHaloPlanes(o, nz)));
+  // Per read plane: the float slab read and the filter's output (4 + 4 B), or the
+  // indicator with the flood fill's marks and its stack of offsets (1 + 1 + 8 B) plus the
+  // cropped copy (1 B). Per own plane: indicator, mask, core mask (3 B). Per plane: the
+  // z-chord state (9 B x 2 regions) and one raw plane buffer (8 B).
+  const std::uint64_t perRead = std::max<std::uint64_t>(8, 11);
+  std::uint64_t bytes =
+      perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane;
+  // The first pass's exact value histogram (hash map node + bucket) and Otsu's bins.
+  // A median or none selects input values, so an 8/16-bit file has at most 2^8/2^16.
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
+    const std::string& c = h.info.componentType;  // ITK's name of the stored type
+    const std::size_t distinct = c == "unsigned_char" || c == "char"     ? 256
+                                 : c == "unsigned_short" || c == "short" ? 65536
+                                                                         : kMaxDistinctValues;
+    bytes += distinct * 48 + 1024 * 8;
+  }
+  return bytes + kProcessBaseBytes;
+}
+
+std::int64_t streamedSlabPlanes(const VolumeHeader& h, const IngestOptions& o,
+                                const MemoryBudget& budget, std::int64_t slabPlanes) {
+  const Lattice& l = h.lattice;
+  if (slabPlanes > 0) return std::min(slabPlanes, l.nz());
+  if (budget.limitBytes == 0) return l.nz();
+  std::int64_t lo = 0, hi = l.nz();  // largest t with estimate(t) <= limit
+  while (lo < hi) {
+    const std::int64_t mid = (lo + hi + 1) / 2;
+    if (estimateStreamedIngestBytes(h, o, mid) <= budget.limitBytes)
+      lo = mid;
+    else
+      hi = mid - 1;
+  }
+  return lo;
+}
+
+StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOptions& o,
+                                          const std::filesystem::path& output,
+                                          std::int64_t slabPlanes, int threads, Progress& progress,
+                                          const nlohmann::json& extraProvenance) {
+  const std::string why = streamedIngestUnsupported(o, h);
+  if (!why.empty()) throw UsageError("no streamed ingest for " + why);
+  if (o.maxSpeckVoxels > (std::size_t{1} << 40) || o.maxHoleVoxels > (std::size_t{1} << 40))
+    throw UsageError("speck/hole sizes are out of range");
+  const auto tStart = std::chrono::steady_clock::now();
+  const Lattice& lat = h.lattice;
+  const std::int64_t nz = lat.nz();
+  const std::int64_t T = std::clamp<std::int64_t>(slabPlanes, 1, nz);
+  const std::int64_t slabs = (nz + T - 1) / T;
+  nlohmann::json timing = nlohmann::json::object();
+
+  // Polarity: as segmentVolume.
+  bool voidBright = false;
+  std::string polaritySource = "option";
+  if (o.voidPolarity == VoidPolarity::Auto) {
+    const auto it = h.info.metadata.find("voxpack_void");
+    if (it != h.info.metadata.end() && (it->second == "bright" || it->second == "dark")) {
+      voidBright = it->second == "bright";
+      polaritySource = "file header voxpack_void";
+    } else {
+      polaritySource = "default (dark, as in XMT)";
+      progress.message("void phase assumed dark (XMT); pass --void bright for MRI water");
+    }
+  } else {
+    voidBright = o.voidPolarity == VoidPolarity::Bright;
+  }
+
+  ColumnFit column;
+  if (o.column == ColumnMode::Explicit) {
+    if (!(o.columnRadiusMm > 0.0) || !std::isfinite(o.columnXMm) || !std::isfinite(o.columnYMm))
+      throw UsageError("--column CX,CY,R needs finite CX, CY (mm) and R > 0 (mm)");
+    column.found = true;
+    column.axisXMm = o.columnXMm;
+    column.axisYMm = o.columnYMm;
+    column.radiusMm = o.columnRadiusMm;
+    column.zRefMm = lat.originMm[0];
+    column.note = "given on the command line";
+  }
+
+  // Pass 1: exact counts of the denoised grey values (the threshold's only input).
+  auto t0 = std::chrono::steady_clock::now();
+  double t = o.thresholdValue;
+  double tOtsu = std::numeric_limits<double>::quiet_NaN();
+  int passes = 1;
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
+    ++passes;
+    std::unordered_map<float, std::uint64_t> counts;
+    bool overflow = false;
+    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    for (std::int64_t s = 0; s < slabs; ++s) {
+      checkCancel(progress);
+      progress.report("ingest: threshold histogram (pass 1, " + std::to_string(slabs) + " slabs)",
+                      static_cast<double>(s) / static_cast<double>(slabs));
+      const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
+      const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
+      for (float v : img.values()) {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+        if (!overflow) {
+          ++counts[v];
+          if (counts.size() > kMaxDistinctValues) {
+            overflow = true;
+            counts = {};
+          }
+        }
+      }
+    }
+    std::vector<std::pair<float, std::uint64_t>> sorted(counts.begin(), counts.end());
+    counts = {};
+    std::sort(sorted.begin(), sorted.end());
+    constexpr int kBins = 1024;  // otsuThreshold's default
+    std::vector<double> bins(kBins, 0.0);
+    const double scale = kBins / (static_cast<double>(hi) - lo);
+    if (!overflow) {
+      if (hi > lo)
+        for (const auto& [v, c] : sorted)
+          bins[otsuBin(v, lo, scale, kBins)] += static_cast<double>(c);
+    } else {
+      if (o.threshold == ThresholdMethod::KMeans)
+        throw ResourceError("--threshold kmeans on a streamed image with more than " +
+                            std::to_string(kMaxDistinctValues) +
+                            " distinct grey values is not supported; use --threshold otsu");
+      // Otsu needs only its bins over [lo, hi]: one more pass fills them.
+      ++passes;
+      for (std::int64_t s = 0; s < slabs && hi > lo; ++s) {
+        checkCancel(progress);
+        const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
+        const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
+        for (float v : img.values()) bins[otsuBin(v, lo, scale, kBins)] += 1.0;
+      }
+    }
+    tOtsu = otsuFromBins(bins, lo, hi, lat.size());
+    t = o.threshold == ThresholdMethod::Otsu ? tOtsu : kmeansFromCounts(sorted, lo, hi);
+  }
+  if (!std::isfinite(t)) throw UsageError("--threshold must be a finite number");
+  timing["threshold_s"] = seconds(t0);
+
+  // Pass 2: threshold, clean-up with the halo, mask, write.
+  t0 = std::chrono::steady_clock::now();
+  const std::int64_t hs = cleanupHalo(o.maxSpeckVoxels, nz), hh = cleanupHalo(o.maxHoleVoxels, nz);
+  const double voxel = lat.spacingMm[2];
+  const double margin = (3.0 * 1.0 + 2.0) * voxel;  // segmentVolume's core margin, no blur fit
+  BedSlabWriter writer(output, lat, column.found, false);
+  BedSummary summary;
+  std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0;
+  ChordSums chordsCore, chordsAll;
+  std::size_t specks = 0, holes = 0;
+  for (std::int64_t s = 0; s < slabs; ++s) {
+    checkCancel(progress);
+    progress.report("ingest: segment and write (pass " + std::to_string(passes) + ", " +
+                        std::to_string(slabs) + " slabs)",
+                    static_cast<double>(s) / static_cast<double>(slabs));
+    const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
+    const std::int64_t a = std::max<std::int64_t>(0, z0 - hs - hh), b = std::min(nz, z1 + hs + hh);
+    Grid<std::uint8_t> ind;
+    {
+      const Grid<float> img = denoisedPlanes(h, o, a, b, threads);
+      ind = applyThreshold(img, t, voidBright);
+    }
+    specks += removeSmallComponentsCounted(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
+    const std::int64_t a2 = std::max<std::int64_t>(0, z0 - hh), b2 = std::min(nz, z1 + hh);
+    ind = cropPlanes(ind, a2 - a, b2 - a);
+    holes += removeSmallComponentsCounted(ind, 1, o.maxHoleVoxels, z0 - a2, z1 - a2);
+    ind = cropPlanes(ind, z0 - a2, z1 - a2);
+    const Lattice sub = subLattice(lat, {{z0, 0, 0}, {z1 - z0, lat.ny(), lat.nx()}});
+    std::optional<Grid<std::uint8_t>> mask, core;
+    if (column.found) {
+      mask = columnMask(sub, column);
+      core = columnCoreMask(sub, column, margin);
+    }
+    accumulateSummary(summary, ind, mask ? &*mask : nullptr);
+    for (std::size_t n = 0; n < ind.size(); ++n) {
+      allVoid += ind[n];
+      if (core) {
+        coreIn += (*core)[n];
+        coreVoid += (*core)[n] & ind[n];
+      }
+    }
+    chordsAll.addInPlane(ind, nullptr);
+    chordsAll.addAlongZ(ind, nullptr);
+    if (core) {
+      chordsCore.addInPlane(ind, &*core);
+      chordsCore.addAlongZ(ind, &*core);
+    }
+    writer.writeIndicator(z0, ind);
+    if (mask) writer.writeMask(z0, *mask);
+  }
+  finishSummary(summary);
+  timing["segment_s"] = seconds(t0);
+  progress.report("ingest: segment and write", 1.0);
+
+  // segmentVolume uses the column core as the region when it holds >= 64 voxels.
+  const bool coreUsed = column.found && coreIn >= 64;
+  const double achieved = coreUsed ? static_cast<double>(coreVoid) / static_cast<double>(coreIn)
+                                   : static_cast<double>(allVoid) / static_cast<double>(lat.size());
+  const double vpd = coreUsed ? chordsCore.diameter() : chordsAll.diameter();
+  const std::string method = thresholdName(o.threshold);
+
+  nlohmann::json rep;
+  rep["input"] = h.info.files.empty() ? std::string() : h.info.files.front();
+  rep["reader"] = {{"source", h.info.source},
+                   {"image_io", h.info.imageIO},
+                   {"component_type", h.info.componentType},
+                   {"files", h.info.files.size()},
+                   {"spacing_from_file", h.info.spacingFromFile},
+                   {"lattice", latticeJson(lat)}};
+  rep["options"] = {{"voxel_size_mm", o.read.voxelSizeMm},
+                    {"denoise", denoiseName(o.denoise)},
+                    {"median_radius_voxels", o.medianRadiusVoxels},
+                    {"curvature_iterations", o.curvature.iterations},
+                    {"curvature_conductance", o.curvature.conductance},
+                    {"n4", o.n4},
+                    {"n4_shrink_factor", o.n4Options.shrinkFactor},
+                    {"n4_fitting_levels", o.n4Options.fittingLevels},
+                    {"resample_mm", o.resampleMm},
+                    {"threshold", method},
+                    {"noise", o.noise == NoiseChoice::Auto     ? "auto"
+                              : o.noise == NoiseChoice::Rician ? "rician"
+                                                               : "gaussian"},
+                    {"refine_column", o.refineColumn},
+                    {"max_speck_voxels", o.maxSpeckVoxels},
+                    {"max_hole_voxels", o.maxHoleVoxels},
+                    {"column", o.column == ColumnMode::None ? "none" : "explicit"},
+                    {"labels", o.labels}};
+  rep["threshold"] = {{"method", method},
+                      {"requested", method},
+                      {"value", finiteOrNull(t)},
+                      {"otsu_value", finiteOrNull(tOtsu)},
+                      {"void", voidBright ? "bright" : "dark"},
+                      {"void_from", polaritySource},
+                      {"region", coreUsed ? "column core" : "whole image"},
+                      {"porosity_segmented_region", finiteOrNull(achieved)}};
+  rep["quality"] = {{"noise_sigma", 0.0},
+                    {"snr", 0.0},
+                    {"blur_mm", nullptr},
+                    {"blur_from", "not measured (no wall seen)"},
+                    {"voxel_mm", finiteOrNull(voxel)},
+                    {"voxels_per_diameter", finiteOrNull(vpd)},
+                    {"diameter_from", "sphere-equivalent 6V/S = 1.5 x mean solid chord"}};
+  rep["cleanup"] = {{"specks_removed", specks}, {"holes_filled", holes}};
+  nlohmann::json col = {{"mode", o.column == ColumnMode::None ? "none" : "explicit"},
+                        {"found", column.found},
+                        {"note", column.note}};
+  if (column.found) {
+    col["axis_x_mm"] = column.axisXMm;
+    col["axis_y_mm"] = column.axisYMm;
+    col["axis_z_ref_mm"] = column.zRefMm;
+    col["slope_x"] = 0.0;
+    col["slope_y"] = 0.0;
+    col["radius_mm"] = column.radiusMm;
+    col["slabs"] = 0;
+    col["radius_spread_mm"] = 0.0;
+    col["radius_std_mm"] = 0.0;
+    col["touches_border"] = false;
+    col["refined"] = false;
+  }
+  rep["column"] = col;
+  rep["output_lattice"] = latticeJson(lat);
+  rep["porosity"] = summary.emptyMask ? nlohmann::json(nullptr) : finiteOrNull(summary.porosity);
+  timing["total_s"] = seconds(tStart);
+  rep["timing_s"] = timing;
+  rep["streamed"] = {
+      {"slab_planes", T},
+      {"slabs", slabs},
+      {"halo_planes", streamedHaloPlanes(o, nz)},
+      {"passes", passes},
+      {"memory_estimate_bytes", estimateStreamedIngestBytes(h, o, T)},
+      {"note",
+       "read by z-slab; the denoise and speck/hole clean-up use a halo that makes every "
+       "slab exact; the threshold comes from the exact value histogram of pass 1"}};
+  sanitizeNonFinite(rep);
+  nlohmann::json prov = {
+      {"voxpack_version", versionString()}, {"command", "ingest"}, {"ingest", rep}};
+  if (extraProvenance.is_object())
+    for (const auto& [k, v] : extraProvenance.items()) prov[k] = v;
+  checkCancel(progress);
+  writer.finish(ParticleTable{}, prov);
+
+  StreamedIngestResult r;
+  r.lattice = lat;
+  r.thresholdUsed = t;
+  r.voidBright = voidBright;
+  r.column = column;
+  r.report = rep;
+  return r;
+}
+
+}  // namespace voxpack::ingest
