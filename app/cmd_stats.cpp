@@ -1,5 +1,9 @@
 // voxpack stats IN.h5 -o STATS.json [--only ...] [--csv DIR] [--roi-mm Z0:Z1]: structure
-// statistics of a bed, optionally of a region of interest.
+// statistics of a bed, optionally of a region of interest. The peak memory is estimated
+// first: work that fits runs in memory, work that does not streams in z-slabs (axial,
+// radial, S2, orientation), the rest is refused up front (docs/scale.md). Under mpirun
+// (MPI builds) the slabs are spread over the ranks and rank 0 writes the JSON.
+#include <cmath>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -10,7 +14,9 @@
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/parallel.hpp"
 #include "voxpack/stats/crop.hpp"
+#include "voxpack/stats/distributed.hpp"
 #include "voxpack/stats/stats.hpp"
+#include "voxpack/stats/streamed.hpp"
 
 namespace voxpack::app {
 namespace {
@@ -50,8 +56,43 @@ class StatsCommand final : public Command {
     sub.add_option("--mes-directions", o_.mesDirections, "ray directions per sampled voxel")
         ->capture_default_str();
     sub.add_option("--seed", o_.seed, "seed of the isotropic sampling")->capture_default_str();
+    sub.add_option("--slab-voxels", slabPlanes_,
+                   "stream in z-slabs this many voxels (planes) thick, whatever the memory "
+                   "(axial, radial, s2, orientation only; default: stream only past "
+                   "--memory-limit)")
+        ->check(CLI::PositiveNumber);
+    sub.add_option("--packed-region", packedMode_,
+                   "auto: compute every statistic on the packed slices only (detected as "
+                   "compare does); off: the whole bed (a warning when > 10 % is headspace)")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
+    sub.add_flag("--bed-window", bedWindow_,
+                 "crop to the bed's interior before any statistic: from 2 d above the lowest "
+                 "mask slice to 2 d below the highest particle centre (d = "
+                 "--particle-diameter-mm); the window of the headline densities "
+                 "(docs/dem.md)");
   }
   int execute(const GlobalOptions& global) override {
+    stats::Communicator& comm = stats::Communicator::world();
+    if (comm.size() <= 1) return run(global, comm);
+    // One failing rank must not leave the others waiting in a reduction.
+    try {
+      return run(global, comm);
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << '\n';
+      comm.abort(dynamic_cast<const InputError*>(&e) || dynamic_cast<const IoError*>(&e) ? 2 : 1);
+    }
+  }
+
+ private:
+  std::string input_, output_, only_, csvDir_, roiZ_, roiBox_, packedMode_ = "off";
+  std::int64_t slabPlanes_ = 0;
+  bool bedWindow_ = false;
+  stats::StatsOptions o_;
+  CLI::Option* roiZOpt_ = nullptr;
+  CLI::Option* roiBoxOpt_ = nullptr;
+
+  int run(const GlobalOptions& global, const stats::Communicator& comm) {
     o_.only.clear();
     std::stringstream ss(only_);
     for (std::string item; std::getline(ss, item, ',');)
@@ -62,20 +103,65 @@ class StatsCommand final : public Command {
     std::optional<stats::CropOptions> roi;
     if (roiZOpt_->count() > 0) roi = stats::parseRoiZ(roiZ_);
     if (roiBoxOpt_->count() > 0) roi = stats::parseRoiBox(roiBox_);
-    Bed bed = readBed(input_);
-    nlohmann::json roiRecord = nullptr;
-    if (roi) {
-      stats::CropBox box;
-      // Assigning frees the uncropped bed: statistics then run on the ROI alone.
-      bed = stats::cropBed(bed, *roi, &box);
-      roiRecord = stats::roiJson(*roi, box);
+    const bool packedAuto = packedMode_ == "auto";
+    if (bedWindow_) {
+      if (!(o_.particleDiameterMm > 0))
+        throw UsageError(
+            "--bed-window needs --particle-diameter-mm (the window is 2 d from "
+            "each end)");
+      if (roi || packedAuto)
+        throw UsageError(
+            "--bed-window cannot be combined with --roi-mm, --roi-box-mm or "
+            "--packed-region auto");
     }
+
+    // The estimate comes from the header alone, before any volume is read.
+    const BedHeader header = readBedHeader(input_);
+    std::optional<VoxelBox> roiBox;
+    if (roi) {
+      const stats::CropBox cb = stats::cropBox(header.lattice, *roi);
+      roiBox = VoxelBox{cb.first, cb.dims};
+    }
+    const std::uint64_t inMemory = stats::estimateInMemoryBytes(header, o_, roiBox);
+    const bool forced = slabPlanes_ > 0 || comm.size() > 1;
+    const bool stream = forced || !global.memory.fits(inMemory);
+    if (stream && bedWindow_)
+      throw UsageError(
+          "--bed-window works on the in-memory path only; use --roi-mm Z0:Z1 "
+          "to stream a window");
+    const std::set<std::string> which = o_.only.empty() ? stats::statisticNames() : o_.only;
+    std::string cannot;
+    for (const auto& s : which)
+      if (!stats::streamableStatistics().count(s)) cannot += (cannot.empty() ? "" : ",") + s;
+    if (stream && !cannot.empty()) {
+      if (!forced)
+        requireWithinBudget(inMemory, global.memory,
+                            input_ + ": stats in memory (" + cannot +
+                                " cannot stream; --only axial,radial,s2,orientation can)");
+      throw UsageError(
+          std::string(slabPlanes_ > 0 ? "--slab-voxels" : "mpirun") + ": " + cannot +
+          " cannot be streamed in slabs; pass --only with axial,radial,s2,orientation");
+    }
+
     CommandProgress progress(global);
-    nlohmann::json stats = stats::computeStats(bed, o_, progress);
-    stats["roi_mm"] = roiRecord;
+    nlohmann::json stats;
+    if (stream) {
+      stats::StreamOptions so;
+      so.slabPlanes = slabPlanes_;
+      so.budget = global.memory;
+      so.roi = roi;
+      so.packedRegion = packedAuto;
+      stats = stats::computeStatsStreamed(input_, o_, so, progress, comm);
+    } else {
+      stats = inMemory_(global, roi, packedAuto, progress);
+    }
+    stats["memory_estimate_bytes"] = {{"in_memory", inMemory},
+                                      {"limit", global.memory.limitBytes},
+                                      {"path", stream ? "streamed" : "in_memory"}};
     stats["input"] = input_;
     stats["command_line"] = global.commandLine;
-    stats["input_provenance"] = bed.provenance;
+    stats["input_provenance"] = header.provenance;
+    if (comm.rank() != 0) return 0;
     if (!csvDir_.empty()) {
       stats::writeStatsCsv(stats, csvDir_);
       stats::writeShadowPngs(stats, csvDir_);
@@ -85,11 +171,73 @@ class StatsCommand final : public Command {
     return 0;
   }
 
- private:
-  std::string input_, output_, only_, csvDir_, roiZ_, roiBox_;
-  stats::StatsOptions o_;
-  CLI::Option* roiZOpt_ = nullptr;
-  CLI::Option* roiBoxOpt_ = nullptr;
+  // [lowest mask slice + 2 d, highest particle centre - 2 d]: the interior of a poured
+  // bed, free of the floor's ordering and of the loose top layer.
+  static stats::CropOptions bedWindow(const Bed& bed, double d) {
+    if (bed.particles.empty())
+      throw InputError("--bed-window: " + std::string("the bed has no particle table"));
+    const Lattice& l = bed.lattice();
+    std::int64_t first = -1;
+    const std::size_t plane = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
+    for (std::int64_t k = 0; k < l.dims[0] && first < 0; ++k)
+      for (std::size_t o = 0; o < plane; ++o)
+        if (!bed.mask || (*bed.mask)[static_cast<std::size_t>(k) * plane + o]) {
+          first = k;
+          break;
+        }
+    if (first < 0) throw InputError("--bed-window: the mask is empty");
+    double top = -1e300;
+    for (const Vec3& p : bed.particles.positionMm) top = std::max(top, p.z());
+    const double z0 = l.originMm[0] + static_cast<double>(first) * l.spacingMm[0] + 2 * d;
+    const double z1 = top - 2 * d;
+    if (!(z1 > z0))
+      throw InputError("--bed-window: the bed is shallower than 4 particle diameters");
+    stats::CropOptions c;
+    c.zMm = stats::RangeMm{z0, z1};
+    return c;
+  }
+
+  nlohmann::json inMemory_(const GlobalOptions& global,
+                           const std::optional<stats::CropOptions>& roi, bool packedAuto,
+                           Progress& progress) {
+    Bed bed = readBed(input_, global.memory);
+    nlohmann::json roiRecord = nullptr;
+    if (roi) {
+      stats::CropBox box;
+      // Assigning frees the uncropped bed: statistics then run on the ROI alone.
+      bed = stats::cropBed(bed, *roi, &box);
+      roiRecord = stats::roiJson(*roi, box);
+    }
+    if (bedWindow_) {
+      const stats::CropOptions w = bedWindow(bed, o_.particleDiameterMm);
+      stats::CropBox box;
+      bed = stats::cropBed(bed, w, &box);
+      roiRecord = stats::roiJson(w, box);
+      roiRecord["bed_window_diameters"] = 2;
+    }
+    const stats::PackedSlices packed = stats::packedSlices(stats::sliceCounts(bed));
+    const bool apply = packedAuto && packed.found;
+    const nlohmann::json packedRecord =
+        stats::packedRegionJson(packed, bed.lattice(), packedAuto ? "auto" : "off", apply);
+    if (!packedAuto && packed.headspaceFraction > 0.10)
+      progress.message(
+          "warning: " + input_ + ": " +
+          std::to_string(static_cast<int>(std::lround(100 * packed.headspaceFraction))) +
+          " % of the mask lies outside the packed region (headspace or end walls) "
+          "and is included; pass --packed-region auto to exclude it");
+    if (apply) {
+      const Lattice& l = bed.lattice();
+      stats::CropOptions z;
+      z.zMm =
+          stats::RangeMm{l.originMm[0] + static_cast<double>(packed.firstSlice) * l.spacingMm[0],
+                         l.originMm[0] + static_cast<double>(packed.lastSlice) * l.spacingMm[0]};
+      bed = stats::cropBed(bed, z);
+    }
+    nlohmann::json stats = stats::computeStats(bed, o_, progress);
+    stats["roi_mm"] = roiRecord;
+    stats["packed_region"] = packedRecord;
+    return stats;
+  }
 };
 
 }  // namespace

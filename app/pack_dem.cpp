@@ -187,6 +187,11 @@ class DemMode final : public PackMode {
 
     CommandProgress progress(global);
     const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress);
+    // A cancelled run (signal, or a Python KeyboardInterrupt through the hook) writes no
+    // partial bed: the caller gets Cancelled, as from the Monte Carlo walk.
+    if (r.status == packer::dem::DemStatus::kCancelled)
+      throw Cancelled("DEM run cancelled after " + std::to_string(r.simulatedTimeS) +
+                      " s simulated; no bed written");
     double clippedMm3 = 0;
     Bed bed = packer::dem::demBed(r.particles, shapes, *container, scene.voxelSizeMm,
                                   scene.supersample, o.threads, progress, &clippedMm3);

@@ -58,9 +58,13 @@ TEST(ExtremePackMc, ContainerBarelyLargerThanParticle) {
   const auto r = pack(tmp, "mc",
                       {"--shape", "sphere:d=3", "--container", "cylinder:d=3.4,h=3.4",
                        "--voxel-size", "0.2", "--count", "1"});
-  if (r.cli.exitCode == 0) {
-    EXPECT_LE(r.info["particles"].get<int>(), 1);
-  }
+  // The scene is valid, so it must run (not be refused). Whether one of the 200 random
+  // poses fits is chance; the status must say which: 1 particle = settled, 0 = full.
+  ASSERT_EQ(r.cli.exitCode, 0) << r.cli.err;
+  const int n = r.info["particles"].get<int>();
+  const std::string status = r.info["provenance"]["status"].get<std::string>();
+  EXPECT_LE(n, 1);
+  EXPECT_EQ(status, n == 1 ? "settled" : "container_full");
 }
 
 TEST(ExtremePackMc, ParticlesTwoToThreeVoxelsAcross) {
@@ -68,9 +72,10 @@ TEST(ExtremePackMc, ParticlesTwoToThreeVoxelsAcross) {
   const auto r = pack(tmp, "mc",
                       {"--shape", "sphere:d=0.75", "--container", "cylinder:d=6,h=6",
                        "--voxel-size", "0.3", "--count", "60"});
-  if (r.cli.exitCode == 0) {
-    EXPECT_GT(r.info["particles"].get<int>(), 0);
-  }
+  // 60 spheres of 13 mm^3 in all fill 8 % of the column: every one must be placed.
+  ASSERT_EQ(r.cli.exitCode, 0) << r.cli.err;
+  EXPECT_EQ(r.info["particles"].get<int>(), 60);
+  EXPECT_EQ(r.info["provenance"]["status"], "settled");
 }
 
 TEST(ExtremePackMc, ReboundProbabilityZeroAndOne) {
@@ -78,11 +83,16 @@ TEST(ExtremePackMc, ReboundProbabilityZeroAndOne) {
     TempDir tmp;
     const auto r = pack(tmp, "mc",
                         with(kSmallSpheres, {"--count", "6", "--rebound-probability", p,
-                                             "--mc-max-sweeps", "400"}));
+                                             "--mc-max-sweeps", "1000"}));
     ASSERT_EQ(r.cli.exitCode, 0) << "p_r " << p;
     EXPECT_EQ(r.info["particles"], 6) << "p_r " << p;
-    // p_r = 1 removes the downward drift: the run must end by its cap, and say so.
-    EXPECT_TRUE(r.info["provenance"].dump().find("status") != std::string::npos);
+    // The status is stored and printed (p_r = 0 settles, after 420 sweeps with seed 3).
+    // p_r = 1 should end by its cap
+    // but is called settled by the one-sided settling test: McBands.
+    // DISABLED_ReboundProbabilityOneEndsByItsCap holds that defect.
+    const std::string status = r.info["provenance"]["status"].get<std::string>();
+    EXPECT_NE(r.cli.out.find("status " + status), std::string::npos) << r.cli.out;
+    if (std::string(p) == "0") EXPECT_EQ(status, "settled");
   }
 }
 
