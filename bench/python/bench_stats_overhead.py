@@ -11,8 +11,8 @@ The bed is synthetic (random overlapping balls of radius 8 voxels in a cylinder 
   array  voxpack.stats(indicator_array, mask=..., threads=T) in this process (one copy of the
          arrays into the C++ grids, statistics, JSON -> dict);
   path   voxpack.stats("bed.h5", threads=T) (read_bed, copy, statistics, dict).
-Wall time (perf_counter) and CPU time (user+sys of the child / of this process) are
-recorded per run; the overhead is median(python) / median(cli) - 1. The results must be
+Wall time (perf_counter), CPU time (user+sys of the child / of this process) and the 1-min
+load average before and after are recorded per run (--wait-load L waits for load < L first); the overhead is median(python) / median(cli) - 1. The results must be
 value for value equal (checked). Raw JSON to bench/results/python_overhead.json.
 """
 
@@ -67,6 +67,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--only", default="", help="comma-separated statistics (default all)")
     ap.add_argument("--out", default="bench/results/python_overhead.json")
+    ap.add_argument("--wait-load", type=float, default=0.0,
+                    help="before each run, wait (up to --wait-max s) until the 1-min load is below this")
+    ap.add_argument("--wait-max", type=float, default=120.0)
     a = ap.parse_args()
 
     tmp = pathlib.Path(tempfile.mkdtemp(prefix="voxpack-bench-"))
@@ -92,12 +95,22 @@ def main():
         results[what] = voxpack.stats(src, only=only, threads=a.threads, **kw)
         return time.perf_counter() - t0, cpu_self() - c0
 
+    def wait_for_load():
+        t0 = time.monotonic()
+        while a.wait_load > 0 and os.getloadavg()[0] >= a.wait_load and time.monotonic() - t0 < a.wait_max:
+            time.sleep(5)
+        return time.monotonic() - t0
+
     for rep in range(a.repeats):
         order = ["cli", "array", "path"] if rep % 2 == 0 else ["path", "array", "cli"]
         for what in order:
+            waited = wait_for_load()
+            load_before = os.getloadavg()[0]
             wall, cpu = run_cli() if what == "cli" else run_py(what)
-            runs[what].append({"wall_s": wall, "cpu_s": cpu})
-            print(f"repeat {rep} {what:5s} wall {wall:7.2f} s  cpu {cpu:7.2f} s", flush=True)
+            runs[what].append({"wall_s": wall, "cpu_s": cpu, "load1_before": load_before,
+                               "load1_after": os.getloadavg()[0], "waited_s": waited})
+            print(f"repeat {rep} {what:5s} wall {wall:7.2f} s  cpu {cpu:7.2f} s  "
+                  f"load {load_before:.2f}->{os.getloadavg()[0]:.2f}", flush=True)
         load["after"] = os.getloadavg()
         write_summary(a, tmp, bed_file, only, runs, load, results)
     for f in tmp.iterdir():
@@ -117,6 +130,25 @@ def write_summary(a, tmp, bed_file, only, runs, load, results):
         return [clean(v) for v in d] if isinstance(d, list) else d
     equal = {w: clean(results[w]) == clean(ref) for w in ("array", "path")}
 
+    def max_rel(x, y):
+        """Largest relative difference of the numbers in two JSON trees (inf: structure)."""
+        if isinstance(x, dict) and isinstance(y, dict):
+            keys = set(x) | set(y)
+            if any(k not in x or k not in y for k in keys):
+                return float("inf")
+            return max((max_rel(x[k], y[k]) for k in keys), default=0.0)
+        if isinstance(x, list) and isinstance(y, list):
+            if len(x) != len(y):
+                return float("inf")
+            return max((max_rel(u, v) for u, v in zip(x, y)), default=0.0)
+        if isinstance(x, (int, float)) and isinstance(y, (int, float)) and not isinstance(x, bool):
+            return abs(x - y) / max(abs(x), abs(y)) if x != y else 0.0
+        return 0.0 if x == y else float("inf")
+    # The array has no file provenance (the CLI's input_provenance is the file's).
+    rel = {w: max_rel({k: v for k, v in clean(results[w]).items() if k != "input_provenance"},
+                      {k: v for k, v in clean(ref).items() if k != "input_provenance"})
+           for w in ("array", "path")}
+
     def med(what, key):
         return statistics.median(r[key] for r in runs[what])
 
@@ -134,6 +166,7 @@ def write_summary(a, tmp, bed_file, only, runs, load, results):
         "overhead_wall": {w: med(w, "wall_s") / med("cli", "wall_s") - 1 for w in ("array", "path")},
         "overhead_cpu": {w: med(w, "cpu_s") / med("cli", "cpu_s") - 1 for w in ("array", "path")},
         "results_equal_to_cli": equal,
+        "results_max_rel_diff_to_cli": rel,
         "loadavg": load,
         "cpu_count": os.cpu_count(),
         "python": sys.version.split()[0],
@@ -144,7 +177,8 @@ def write_summary(a, tmp, bed_file, only, runs, load, results):
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(summary, indent=2) + "\n")
     print(json.dumps({k: summary[k] for k in ("median_wall_s", "median_cpu_s", "overhead_wall",
-                                              "overhead_cpu", "results_equal_to_cli", "loadavg")},
+                                              "overhead_cpu", "results_equal_to_cli",
+                                              "results_max_rel_diff_to_cli", "loadavg")},
                      indent=2), flush=True)
 
 
