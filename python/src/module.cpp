@@ -10,8 +10,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <exception>
 #include <iostream>
 #include <mutex>
@@ -29,7 +31,9 @@
 #include "voxpack/core/parallel.hpp"
 #include "voxpack/core/version.hpp"
 #include "voxpack/stats/crop.hpp"
+#include "voxpack/stats/profiles.hpp"
 #include "voxpack/stats/stats.hpp"
+#include "voxpack/stats/streamed.hpp"
 
 namespace voxpack::python {
 namespace {
@@ -208,8 +212,34 @@ T option(const py::dict& d, const char* key, T fallback) {
   return d[key].cast<T>();
 }
 
-// The body of `voxpack stats` (app/cmd_stats.cpp) for an in-memory bed: the same option
-// parsing, the same ROI crop, computeStats and the same extra keys.
+// --bed-window of app/cmd_stats.cpp (a static helper there, copied until the stats library
+// has it): [lowest mask slice + 2 d, highest particle centre - 2 d].
+stats::CropOptions bedWindow(const Bed& bed, double d) {
+  if (bed.particles.empty())
+    throw InputError("--bed-window: " + std::string("the bed has no particle table"));
+  const Lattice& l = bed.lattice();
+  std::int64_t first = -1;
+  const std::size_t plane = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
+  for (std::int64_t k = 0; k < l.dims[0] && first < 0; ++k)
+    for (std::size_t o = 0; o < plane; ++o)
+      if (!bed.mask || (*bed.mask)[static_cast<std::size_t>(k) * plane + o]) {
+        first = k;
+        break;
+      }
+  if (first < 0) throw InputError("--bed-window: the mask is empty");
+  double top = -1e300;
+  for (const Vec3& p : bed.particles.positionMm) top = std::max(top, p.z());
+  const double z0 = l.originMm[0] + static_cast<double>(first) * l.spacingMm[0] + 2 * d;
+  const double z1 = top - 2 * d;
+  if (!(z1 > z0)) throw InputError("--bed-window: the bed is shallower than 4 particle diameters");
+  stats::CropOptions c;
+  c.zMm = stats::RangeMm{z0, z1};
+  return c;
+}
+
+// The body of `voxpack stats` (app/cmd_stats.cpp, its in-memory path) for an in-memory bed:
+// the same option parsing and checks, the same ROI / bed-window / packed-region crops,
+// computeStats and the same extra keys.
 py::object statsPy(const py::dict& bedDict, const py::dict& opt, py::object progress,
                    py::object message) {
   stats::StatsOptions o;
@@ -236,6 +266,22 @@ py::object statsPy(const py::dict& bedDict, const py::dict& opt, py::object prog
   if (!roiZ.empty() && !roiBox.empty()) throw UsageError("--roi-box-mm excludes --roi-mm");
   if (!roiZ.empty()) roi = stats::parseRoiZ(roiZ);
   if (!roiBox.empty()) roi = stats::parseRoiBox(roiBox);
+  const auto packedMode = option<std::string>(opt, "packed_region", "off");
+  if (packedMode != "auto" && packedMode != "off")
+    throw UsageError("--packed-region: " + packedMode + " not in {auto,off}");
+  const bool packedAuto = packedMode == "auto";
+  const bool window = option(opt, "bed_window", false);
+  if (window) {
+    if (!(o.particleDiameterMm > 0))
+      throw UsageError(
+          "--bed-window needs --particle-diameter-mm (the window is 2 d from "
+          "each end)");
+    if (roi || packedAuto)
+      throw UsageError(
+          "--bed-window cannot be combined with --roi-mm, --roi-box-mm or "
+          "--packed-region auto");
+  }
+  const auto inputName = option<std::string>(opt, "input", "the array");
 
   Bed bed = bedFromDict(bedDict);
   PyProgress hook(std::move(progress), std::move(message));
@@ -246,8 +292,33 @@ py::object statsPy(const py::dict& bedDict, const py::dict& opt, py::object prog
       bed = stats::cropBed(bed, *roi, &box);
       roiRecord = stats::roiJson(*roi, box);
     }
+    if (window) {
+      const stats::CropOptions w = bedWindow(bed, o.particleDiameterMm);
+      stats::CropBox box;
+      bed = stats::cropBed(bed, w, &box);
+      roiRecord = stats::roiJson(w, box);
+      roiRecord["bed_window_diameters"] = 2;
+    }
+    const stats::PackedSlices packed = stats::packedSlices(stats::sliceCounts(bed));
+    const bool apply = packedAuto && packed.found;
+    const nlohmann::json packedRecord =
+        stats::packedRegionJson(packed, bed.lattice(), packedMode, apply);
+    if (!packedAuto && packed.headspaceFraction > 0.10)
+      hook.message("warning: " + inputName + ": " +
+                   std::to_string(static_cast<int>(std::lround(100 * packed.headspaceFraction))) +
+                   " % of the mask lies outside the packed region (headspace or end walls) "
+                   "and is included; pass --packed-region auto to exclude it");
+    if (apply) {
+      const Lattice& l = bed.lattice();
+      stats::CropOptions z;
+      z.zMm =
+          stats::RangeMm{l.originMm[0] + static_cast<double>(packed.firstSlice) * l.spacingMm[0],
+                         l.originMm[0] + static_cast<double>(packed.lastSlice) * l.spacingMm[0]};
+      bed = stats::cropBed(bed, z);
+    }
     nlohmann::json s = stats::computeStats(bed, o, hook);
     s["roi_mm"] = roiRecord;
+    s["packed_region"] = packedRecord;
     s["input_provenance"] = bed.provenance;
     sanitizeNonFinite(s);  // what writeJsonFile does before the CLI writes its file
     return s;

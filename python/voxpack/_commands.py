@@ -149,8 +149,8 @@ def stats(bed_or_array, only: Optional[Sequence[str]] = None, *, spacing_mm=None
           s2_float: bool = False, radial_bin_mm: Optional[float] = None,
           mes_method: Optional[str] = None, mes_samples: Optional[int] = None,
           mes_directions: Optional[int] = None, seed: Optional[int] = None,
-          roi_mm=None, roi_box_mm=None, threads: Optional[int] = None,
-          progress: Optional[Callable] = None) -> dict:
+          roi_mm=None, roi_box_mm=None, packed_region: str = "off", bed_window: bool = False,
+          threads: Optional[int] = None, progress: Optional[Callable] = None) -> dict:
     """Structure statistics (`voxpack stats`), the same dict as the CLI's JSON.
 
     The statistics library's computeStats runs on the bed in memory (GIL released), the
@@ -189,6 +189,16 @@ def stats(bed_or_array, only: Optional[Sequence[str]] = None, *, spacing_mm=None
         Crop to voxel centres with z in [z0, z1] mm first (`--roi-mm`).
     roi_box_mm : str "X0:X1,Y0:Y1,Z0:Z1" or ((x0, x1) | None, (y0, y1) | None, (z0, z1) | None)
         Crop to a box in mm first (`--roi-box-mm`).
+    packed_region : "off" | "auto"
+        auto: every statistic on the packed slices only (detected as compare does: partly
+        solid slices denser than half the densest); off (default): the whole bed, with a
+        warning on the "voxpack" logger when > 10 % of the mask is headspace. The dict's
+        `packed_region` record says what was found and whether it was applied
+        (`--packed-region`).
+    bed_window : bool
+        Crop to the bed's interior first: from 2 d above the lowest mask slice to 2 d below
+        the highest particle centre (needs particle_diameter_mm and a particle table; not
+        with roi_mm / roi_box_mm / packed_region="auto"; `--bed-window`).
     threads : int
         Worker threads (default all cores, as `--threads 0`).
     progress : callable
@@ -208,6 +218,7 @@ def stats(bed_or_array, only: Optional[Sequence[str]] = None, *, spacing_mm=None
         "radial_bin_mm": radial_bin_mm, "mes_method": mes_method, "mes_samples": mes_samples,
         "mes_directions": mes_directions, "seed": seed, "threads": threads,
         "roi_mm": _roi_text(roi_mm), "roi_box_mm": roi_box_mm,
+        "packed_region": packed_region, "bed_window": bool(bed_window),
         "input": path, "command_line": "python: voxpack.stats",
     }
     return _voxpack.stats(bed._as_dict(), options, progress_adapter(progress), _message)

@@ -11,9 +11,9 @@ from conftest import sphere_bed
 # Keys that describe where the bed came from, so differ between a file on the command line
 # and an array in memory (the array has no file name, command line or provenance).
 CONTEXT_KEYS = ("input", "command_line", "input_provenance")
-# Records of how the CLI process ran (its memory plan; the packed-region detection report)
-# that the in-memory call does not make; every statistic must still be equal.
-CLI_RUN_KEYS = {"memory_estimate_bytes", "packed_region"}
+# Records of how the CLI process ran (its memory plan) that the in-memory call does not
+# make; every statistic (and the packed_region record) must still be equal.
+CLI_RUN_KEYS = {"memory_estimate_bytes"}
 
 
 def strip(d, keys=CONTEXT_KEYS):
@@ -25,7 +25,7 @@ def same_as_cli(got, ref, keys=CONTEXT_KEYS):
     # Run records the CLI adds around the statistics may be absent (CLI_RUN_KEYS and any
     # later ones), never a statistic or the keys every stats JSON has.
     core = set(voxpack.statistic_names()) | {"porosity", "packing_density", "options",
-                                             "voxpack_version", "roi_mm"}
+                                             "voxpack_version", "roi_mm", "packed_region"}
     assert not (extra & core), f"statistics missing from the Python dict: {sorted(extra & core)}"
     assert set(got) <= set(ref), f"keys only in the Python dict: {sorted(set(got) - set(ref))}"
     ref = {k: v for k, v in ref.items() if k not in extra}
@@ -134,3 +134,49 @@ def test_stats_options_errors():
     with pytest.raises(ValueError):
         voxpack.stats(a, roi_mm=(5, 1))
     assert "s2" in voxpack.statistic_names()
+
+
+def test_packed_region_and_bed_window_equal_cli(cli, tmp_path, caplog):
+    # The small bed under 16 empty slices of headspace (40 % of the mask): auto crops them.
+    indicator, mask, labels, centres = sphere_bed(shape=(24, 20, 22), seed=0)
+    pad = np.ones((16, 20, 22), dtype=bool)
+    tall = np.concatenate([indicator, pad])
+    tall_mask = np.concatenate([mask, np.broadcast_to(mask[:1], (16, 20, 22))])
+    path = tmp_path / "tall.h5"
+    voxpack.write_bed(path, tall, mask=tall_mask, spacing_mm=0.5)
+    for mode in ("auto", "off"):
+        ref = cli_stats(cli, path, tmp_path, "--only", "axial,radial,s2", "--packed-region", mode)
+        with caplog.at_level("WARNING", logger="voxpack"):
+            got = voxpack.stats(tall, mask=tall_mask, spacing_mm=0.5, only=["axial", "radial", "s2"],
+                                packed_region=mode, threads=1)
+        assert got["packed_region"] == ref["packed_region"]
+        same_as_cli(got, ref)
+        if mode == "auto":
+            assert ref["packed_region"]["applied"] is True
+        else:
+            assert "outside the packed region" in caplog.text
+    # bed_window: the CLI's refusals, word for word.
+    p = cli("stats", path, "-o", tmp_path / "w.json", "--bed-window", check=False)
+    with pytest.raises(ValueError) as e:
+        voxpack.stats(path, bed_window=True)
+    assert p.returncode == 2 and str(e.value) in p.stderr
+    p = cli("stats", path, "-o", tmp_path / "w.json", "--bed-window", "--particle-diameter-mm",
+            "3.2", check=False)
+    with pytest.raises(ValueError) as e:
+        voxpack.stats(path, bed_window=True, particle_diameter_mm=3.2)
+    assert p.returncode == 2 and str(e.value) in p.stderr
+    with pytest.raises(ValueError, match="packed-region"):
+        voxpack.stats(path, packed_region="sometimes")
+    # A window that fits: the bed with its particle table, d = 1 mm given.
+    n = len(centres)
+    bed = voxpack.Bed(tall, mask=tall_mask, spacing_mm=0.5,
+                      particles={"position_mm": centres * 0.5,
+                                 "orientation": np.tile([1.0, 0, 0, 0], (n, 1)),
+                                 "shape": ["sphere:d=3.2"] * n})
+    voxpack.write_bed(tmp_path / "window.h5", bed)
+    ref = cli_stats(cli, tmp_path / "window.h5", tmp_path, "--only", "axial,s2", "--bed-window",
+                    "--particle-diameter-mm", "1")
+    got = voxpack.stats(bed, only=["axial", "s2"], bed_window=True, particle_diameter_mm=1,
+                        threads=1)
+    assert ref["roi_mm"]["bed_window_diameters"] == 2
+    same_as_cli(got, ref)
