@@ -240,7 +240,7 @@ stats::CropOptions bedWindow(const Bed& bed, double d) {
 // The body of `voxpack stats` (app/cmd_stats.cpp, its in-memory path) for an in-memory bed:
 // the same option parsing and checks, the same ROI / bed-window / packed-region crops,
 // computeStats and the same extra keys.
-py::object statsPy(const py::dict& bedDict, const py::dict& opt, py::object progress,
+py::object statsPy(const py::object& bedArg, const py::dict& opt, py::object progress,
                    py::object message) {
   stats::StatsOptions o;
   if (opt.contains("only") && !opt["only"].is_none()) {
@@ -283,7 +283,16 @@ py::object statsPy(const py::dict& bedDict, const py::dict& opt, py::object prog
   }
   const auto inputName = option<std::string>(opt, "input", "the array");
 
-  Bed bed = bedFromDict(bedDict);
+  // A bed dict is copied into core grids; a path is read straight into them (the CLI's
+  // reader, no numpy round trip: one copy of the volumes in memory, not two).
+  Bed bed = [&] {
+    if (py::isinstance<py::str>(bedArg)) {
+      const std::string path = bedArg.cast<std::string>();
+      py::gil_scoped_release nogil;
+      return readBed(path);
+    }
+    return bedFromDict(bedArg.cast<py::dict>());
+  }();
   PyProgress hook(std::move(progress), std::move(message));
   nlohmann::json result = runReleased(hook, [&] {
     nlohmann::json roiRecord = nullptr;
@@ -386,6 +395,7 @@ PYBIND11_MODULE(_voxpack, m) {
       "bed_datasets", [](const std::string& path) { return bedDatasets(path); }, py::arg("path"),
       "Datasets present in a bed file.");
   m.def("stats", &statsPy, py::arg("bed"), py::arg("options"), py::arg("progress") = py::none(),
-        py::arg("message") = py::none(), "computeStats of a bed dict, as `voxpack stats`.");
+        py::arg("message") = py::none(),
+        "computeStats of a bed dict or a bed file path, as `voxpack stats`.");
   m.def("statistic_names", &statisticNamesPy, "Names accepted by only=.");
 }

@@ -205,8 +205,10 @@ def stats(bed_or_array, only: Optional[Sequence[str]] = None, *, spacing_mm=None
         progress(done, total) as in pack(); Ctrl-C stops the run (KeyboardInterrupt).
     """
     path = os.fspath(bed_or_array) if isinstance(bed_or_array, (str, os.PathLike)) else None
-    bed = as_bed(bed_or_array, spacing_mm=spacing_mm, origin_mm=origin_mm, mask=mask,
-                 labels=labels)
+    overrides = any(v is not None for v in (spacing_mm, origin_mm, mask, labels))
+    # A path without overrides is read by C++ straight into its grids (no numpy copy).
+    bed = None if path is not None and not overrides else as_bed(
+        bed_or_array, spacing_mm=spacing_mm, origin_mm=origin_mm, mask=mask, labels=labels)
     if isinstance(only, str):
         only = [s for s in only.split(",")]
     if roi_box_mm is not None and not isinstance(roi_box_mm, str):
@@ -221,7 +223,8 @@ def stats(bed_or_array, only: Optional[Sequence[str]] = None, *, spacing_mm=None
         "packed_region": packed_region, "bed_window": bool(bed_window),
         "input": path, "command_line": "python: voxpack.stats",
     }
-    return _voxpack.stats(bed._as_dict(), options, progress_adapter(progress), _message)
+    return _voxpack.stats(path if bed is None else bed._as_dict(), options,
+                          progress_adapter(progress), _message)
 
 
 def ingest(path_or_array, output: Optional[PathLike] = None, *, spacing_mm=None,
