@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <type_traits>
 #include <unordered_map>
 
 #include "voxpack/core/errors.hpp"
@@ -51,8 +52,16 @@ TriMesh fromCgal(const SM<K>& m) {
   for (auto v : m.vertices()) {
     index[v.idx()] = static_cast<std::uint32_t>(out.vertices.size());
     const auto& p = m.point(v);
-    out.vertices.emplace_back(CGAL::to_double(p.x()), CGAL::to_double(p.y()),
-                              CGAL::to_double(p.z()));
+    if constexpr (std::is_same_v<K, Exact>) {
+      // to_double of a lazy exact number returns its interval approximation, which
+      // depends on what was evaluated before (not reproducible run to run); the exact
+      // value rounds to the nearest double, the same bytes every run.
+      out.vertices.emplace_back(CGAL::to_double(CGAL::exact(p.x())),
+                                CGAL::to_double(CGAL::exact(p.y())),
+                                CGAL::to_double(CGAL::exact(p.z())));
+    } else {
+      out.vertices.emplace_back(p.x(), p.y(), p.z());
+    }
   }
   for (auto f : m.faces()) {
     std::array<std::uint32_t, 3> t{};

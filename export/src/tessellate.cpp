@@ -172,7 +172,7 @@ int circleSegments(double radiusMm, double toleranceMm) {
   return std::max(8, static_cast<int>(n));
 }
 
-TriMesh tessellateShape(const std::string& spec, double tol) {
+TriMesh tessellateShape(const std::string& spec, double tol, bool matchVolume) {
   const ParsedSpec s = parseSpec(spec, "shape");
   if (s.name == "mesh") {
     if (!s.positional) throw InputError("shape '" + spec + "': missing STL file");
@@ -182,19 +182,19 @@ TriMesh tessellateShape(const std::string& spec, double tol) {
   if (s.name == "sphere") {
     const double r = s.positive("d") / 2;
     TriMesh m = ellipsoid(r, r, r, circleSegments(r, tol / 2));
-    matchVolumeUniform(m, exact);
+    if (matchVolume) matchVolumeUniform(m, exact);
     return m;
   }
   if (s.name == "ellipsoid") {
     const double a = s.positive("a"), b = s.positive("b"), c = s.positive("c");
     TriMesh m = ellipsoid(a, b, c, circleSegments(std::max({a, b, c}), tol / 2));
-    matchVolumeUniform(m, exact);
+    if (matchVolume) matchVolumeUniform(m, exact);
     return m;
   }
   if (s.name == "cylinder") {
     const double r = s.positive("d") / 2;
     TriMesh m = prism(circle(r, circleSegments(r, tol)), nullptr, s.positive("l") / 2);
-    matchVolumePrism(m, exact);
+    if (matchVolume) matchVolumePrism(m, exact);
     return m;
   }
   if (s.name == "ring") {
@@ -202,7 +202,7 @@ TriMesh tessellateShape(const std::string& spec, double tol) {
     const int n = circleSegments(r, tol);
     const Poly outer = circle(r, n), inner = circle(ri, n);
     TriMesh m = prism(outer, &inner, s.positive("l") / 2);
-    matchVolumePrism(m, exact);
+    if (matchVolume) matchVolumePrism(m, exact);
     return m;
   }
   if (s.name == "box") {
@@ -227,7 +227,7 @@ TriMesh tessellateShape(const std::string& spec, double tol) {
       }
     }
     TriMesh mesh = prism(poly, nullptr, s.positive("l") / 2);
-    matchVolumePrism(mesh, exact);
+    if (matchVolume) matchVolumePrism(mesh, exact);
     return mesh;
   }
   throw InputError("shape '" + spec + "': no tessellation for '" + s.name + "'");

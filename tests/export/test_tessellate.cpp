@@ -15,6 +15,47 @@ namespace {
 const char* kSpecs[] = {"sphere:d=5",      "cylinder:d=5.4,l=3.8",  "ring:d=10,di=6,l=10",
                         "box:x=2,y=3,z=4", "ellipsoid:a=3,b=2,c=1", "trilobe:d=5,l=4"};
 
+// What is tested about the volume. The raw tessellation (no final scale) is inscribed: its
+// vertices lie on the exact surface and its faces inside, within the chord tolerance, so
+// its volume deficit lies in [0, S tol] (S the exact surface): that bound is the
+// tessellation theory, and the raw meshes are checked against it. For a cylinder the
+// deficit is exactly that of an inscribed n-gon, 1 - sin(2 pi/n) n/(2 pi) ~ (4/3) sagitta/r:
+// 0.51 % at the default d/500, just over the issue's 0.5 %. The exported mesh is therefore
+// scaled to the exact volume (equal by construction: asserted to 1e-9 only as a
+// regression), and what is NOT by construction is checked: after the scale every vertex
+// and face centroid is still within the chord tolerance of the exact surface.
+TEST(Tessellate, RawTessellationErrorFollowsTheChordTheory) {
+  for (const char* spec : kSpecs) {
+    SCOPED_TRACE(spec);
+    const auto shape = packer::parseShape(spec);
+    const double tol = shape->characteristicDiameterMm() / 500;
+    const TriMesh raw = tessellateShape(spec, tol, false);
+    EXPECT_TRUE(isClosedManifold(raw));
+    double outside = 0, inside = 0;
+    for (const Vec3& v : raw.vertices) outside = std::max(outside, shape->signedDistanceMm(v));
+    for (const auto& t : raw.triangles) {
+      const Vec3 c = (raw.vertices[t[0]] + raw.vertices[t[1]] + raw.vertices[t[2]]) / 3;
+      inside = std::max(inside, -shape->signedDistanceMm(c));
+    }
+    EXPECT_LE(outside, 1e-9);  // inscribed: no vertex outside the exact surface
+    EXPECT_LE(inside, tol);    // no face deeper than the tolerance
+    const double deficit = shape->volumeMm3() - enclosedVolumeMm3(raw);
+    EXPECT_GE(deficit, -1e-9 * shape->volumeMm3());
+    EXPECT_LE(deficit, shape->surfaceMm2() * tol);
+  }
+  // Cylinder: the inscribed polygon's area ratio, exactly.
+  const double r = 2.7, tol = 5.4 / 500;
+  const int n = circleSegments(r, tol);
+  const double want = std::sin(2 * std::numbers::pi / n) * n / (2 * std::numbers::pi);
+  const double exact = std::numbers::pi * r * r * 3.8;
+  EXPECT_NEAR(enclosedVolumeMm3(tessellateShape("cylinder:d=5.4,l=3.8", tol, false)) / exact, want,
+              1e-9);
+  // Deficit (4/3) sagitta / r (series of sin), sagitta <= tol: 0.507 % here, over 0.5 %.
+  const double sagitta = r * (1 - std::cos(std::numbers::pi / n));
+  EXPECT_NEAR(1 - want, 4.0 / 3 * sagitta / r, 0.01 * sagitta / r);
+  EXPECT_GT(1 - want, 0.005);
+}
+
 TEST(Tessellate, ShellsClosedVolumeExactSurfaceWithinTolerance) {
   for (const char* spec : kSpecs) {
     SCOPED_TRACE(spec);
@@ -23,18 +64,17 @@ TEST(Tessellate, ShellsClosedVolumeExactSurfaceWithinTolerance) {
     const TriMesh m = tessellateShape(spec, tol);
     EXPECT_TRUE(isClosedManifold(m));
     EXPECT_EQ(connectedComponents(m), 1u);
-    // Issue 16: within 0.5 % of the exact volume at the default tolerance (the final scale
-    // makes it exact to rounding; 1e-9 checks that, 0.5 % is the requirement).
+    // Equal by construction (the final scale); a regression check, not the requirement.
     EXPECT_NEAR(enclosedVolumeMm3(m) / shape->volumeMm3(), 1.0, 1e-9);
-    // Vertices and triangle centroids lie within the chord tolerance of the exact surface
-    // (+1 % for the scale that makes the volume exact, which moves points by << tol).
+    // Not by construction: the scaled vertices (just outside) and face centroids (just
+    // inside) stay within the chord tolerance of the exact surface.
     double worst = 0;
     for (const Vec3& v : m.vertices) worst = std::max(worst, std::abs(shape->signedDistanceMm(v)));
     for (const auto& t : m.triangles) {
       const Vec3 c = (m.vertices[t[0]] + m.vertices[t[1]] + m.vertices[t[2]]) / 3;
       worst = std::max(worst, std::abs(shape->signedDistanceMm(c)));
     }
-    EXPECT_LE(worst, 1.01 * tol);
+    EXPECT_LE(worst, tol);
   }
 }
 

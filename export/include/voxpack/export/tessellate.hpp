@@ -19,7 +19,8 @@ int circleSegments(double radiusMm, double toleranceMm);
 /// its enclosed volume equals the exact volume: the vertices lie just outside, the chord
 /// midpoints just inside the exact surface, both within the tolerance. Mesh shapes are
 /// the STL's triangles, scaled and centred. Throws InputError/IoError as parseShape.
-TriMesh tessellateShape(const std::string& spec, double toleranceMm);
+/// `matchVolume = false` skips the final scale: the raw inscribed polygon mesh (tests).
+TriMesh tessellateShape(const std::string& spec, double toleranceMm, bool matchVolume = true);
 
 /// The closed mesh of a container SPEC (cylinder, box, mesh) in world mm, outward normals.
 /// Cylinder walls are circumscribed polygons, so the wall mesh never cuts into a particle
