@@ -91,6 +91,34 @@ inline double scUnitCell(double phi, double perD, flow::LbmDomain& d, double* di
   return phiDigital;
 }
 
+/// A simple-cubic unit cell of side round(perD (pi / (6 phi))^(1/3)) holding the sphere of
+/// the exact solid fraction phi (radius n (3 phi / (4 pi))^(1/3)), with its exact signed
+/// distance (nearest periodic image) for interpolated bounce-back. Returns the diameter.
+inline double scUnitCellExact(double phi, double perD, flow::LbmDomain& d) {
+  const std::int64_t n =
+      static_cast<std::int64_t>(std::lround(perD * std::cbrt(std::numbers::pi / (6.0 * phi))));
+  const double nn = static_cast<double>(n);
+  const double radius = nn * std::cbrt(3.0 * phi / (4.0 * std::numbers::pi));
+  const double c = 0.5 * (nn - 1.0);
+  d.dims = {n, n, n};
+  d.fluid.assign(static_cast<std::size_t>(n * n * n), 1);
+  d.signedDistance.assign(d.fluid.size(), 0.0f);
+  d.periodic = {true, true, true};
+  auto image = [&](std::int64_t k) {
+    const double a = std::abs(static_cast<double>(k) - c);
+    return std::min(a, nn - a);
+  };
+  for (std::int64_t k = 0; k < n; ++k)
+    for (std::int64_t j = 0; j < n; ++j)
+      for (std::int64_t i = 0; i < n; ++i) {
+        const double r = std::sqrt(image(k) * image(k) + image(j) * image(j) + image(i) * image(i));
+        const std::size_t o = static_cast<std::size_t>((k * n + j) * n + i);
+        d.signedDistance[o] = static_cast<float>(r - radius);
+        d.fluid[o] = r >= radius ? 1 : 0;
+      }
+  return 2.0 * radius;
+}
+
 /// A bed with the given indicator values (1 void) on an isotropic lattice.
 inline Bed bedFromDomain(const flow::LbmDomain& d, double voxelMm) {
   Bed bed;
