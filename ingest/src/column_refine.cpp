@@ -54,22 +54,35 @@ struct Edge {
 // wall from r to r + T, outside beyond, all convolved with a Gaussian of sigma (the
 // slope term integrates in closed form). Linear in the four levels: solved exactly for
 // each (r, sigma, T).
-void basis(double u, double r, double s, double t, double b[4]) {
+//
+// Squared mode (MRI magnitude, `squared`): the profile holds M^2, whose mean is A^2 + 2
+// sigma^2 for Rician noise on a signal A, so no convex noise floor bends the step. With a
+// signal-free wall and outside, A = A_bed(u) w(u), w the blurred inside indicator, and the
+// bin mean is A_bed^2 w^2 + const: basis w^2, (u - r) w^2 (the bed's slope), a constant
+// and an outside term.
+void basis(double u, double r, double s, double t, double b[4], bool squared) {
   const double in = cdf((r - u) / s);
+  if (squared) {
+    b[0] = in * in;
+    b[1] = (u - r) * in * in;
+    b[2] = 1.0;
+    b[3] = cdf((u - r - t) / s);
+    return;
+  }
   b[0] = in;
   b[1] = (u - r) * in - s * pdf((u - r) / s);
   b[2] = cdf((u - r) / s) - cdf((u - r - t) / s);
   b[3] = cdf((u - r - t) / s);
 }
 
-double solveLevels(const Profile& p, double r, double s, double t, double coef[4]) {
+double solveLevels(const Profile& p, double r, double s, double t, double coef[4], bool sq) {
   double m[4][5] = {};
   for (std::size_t k = 0; k < p.sum.size(); ++k) {
     const double w = p.count[k];
     if (w <= 0) continue;
     const double y = p.sum[k] / w, u = p.u0 + (static_cast<double>(k) + 0.5) * kBin;
     double b[4];
-    basis(u, r, s, t, b);
+    basis(u, r, s, t, b, sq);
     for (int a = 0; a < 4; ++a) {
       m[a][4] += w * b[a] * y;
       for (int c = 0; c < 4; ++c) m[a][c] += w * b[a] * b[c];
@@ -97,7 +110,7 @@ double solveLevels(const Profile& p, double r, double s, double t, double coef[4
     if (w <= 0) continue;
     const double y = p.sum[k] / w, u = p.u0 + (static_cast<double>(k) + 0.5) * kBin;
     double b[4];
-    basis(u, r, s, t, b);
+    basis(u, r, s, t, b, sq);
     double f = 0;
     for (int a = 0; a < 4; ++a) f += coef[a] * b[a];
     sse += w * (y - f) * (y - f);
@@ -106,11 +119,11 @@ double solveLevels(const Profile& p, double r, double s, double t, double coef[4
 }
 
 // Grid search, then a finer grid around the best point. sigma / T held when fixed.
-Edge fitEdge(const Profile& p, double rLo, double rHi, const Edge* fixedShape) {
+Edge fitEdge(const Profile& p, double rLo, double rHi, const Edge* fixedShape, bool sq) {
   Edge best;
   auto tryPoint = [&](double r, double s, double t) {
     double coef[4];
-    const double sse = solveLevels(p, r, s, t, coef);
+    const double sse = solveLevels(p, r, s, t, coef, sq);
     if (sse < best.sse) {
       best.sse = sse;
       best.r = r;
@@ -249,7 +262,7 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
                 std::min<std::int64_t>(o.sectors - 1, static_cast<std::int64_t>(th * o.sectors));
             Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
             if (b >= p.sum.size()) continue;
-            p.sum[b] += row[i];
+            p.sum[b] += o.squared ? static_cast<double>(row[i]) * row[i] : row[i];
             p.count[b] += 1;
             p.sc += dx / r;
             p.ss += dy / r;
@@ -260,10 +273,11 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
     Profile all;
     all.init(-innerW, outerW);
     for (const auto& p : prof) all.add(p);
-    const Edge global = fitEdge(all, -2.0, 2.0, nullptr);
+    const Edge global = fitEdge(all, -2.0, 2.0, nullptr, o.squared);
     // The step must stand out of the noise: bed-side level against the wall level.
     const double resid = std::sqrt(global.sse / std::max(1.0, global.weight));
-    const double amplitude = std::abs(global.coef[0] - global.coef[2]);
+    const double amplitude =
+        o.squared ? std::abs(global.coef[0]) : std::abs(global.coef[0] - global.coef[2]);
     if (!(global.weight > 0) || !(amplitude > 0.5 * resid) || global.sigma > 2.95) {
       ColumnFit r = rough;
       r.note += "; no clear grey step at the wall, circle fit kept";
@@ -286,7 +300,7 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
         const Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
         // Sectors cut by the field of view hold fewer samples: skip them.
         if (!(p.samples() >= 0.7 * maxCount) || maxCount <= 0) continue;
-        const Edge e = fitEdge(p, -2.0, 2.0, &global);
+        const Edge e = fitEdge(p, -2.0, 2.0, &global, o.squared);
         if (e.r <= -1.99 || e.r >= 1.99) continue;
         const double norm = std::hypot(p.sc, p.ss);
         if (!(norm > 0)) continue;

@@ -277,6 +277,48 @@ PhaseLevels fitPhaseLevels(const Grid<float>& image, const Grid<std::uint8_t>* r
   return L;
 }
 
+InteriorStats phaseInteriorStats(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
+                                 const Grid<std::uint8_t>* region, std::uint8_t phase) {
+  const Lattice& l = image.lattice();
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  InteriorStats st;
+  for (int depth : {3, 2}) {
+    // (k, j, i) lies deep in `phase` when the phase holds along x, y and z within depth.
+    auto deep = [&](std::int64_t k, std::int64_t j, std::int64_t i) {
+      if (k < depth || j < depth || i < depth || k >= nz - depth || j >= ny - depth ||
+          i >= nx - depth)
+        return false;
+      for (int d = -depth; d <= depth; ++d)
+        if (indicator(k + d, j, i) != phase || indicator(k, j + d, i) != phase ||
+            indicator(k, j, i + d) != phase)
+          return false;
+      return true;
+    };
+    std::vector<double> diff;
+    double sum = 0;
+    for (std::int64_t k = 0; k < nz; ++k)
+      for (std::int64_t j = 0; j < ny; ++j)
+        for (std::int64_t i = 0; i + 1 < nx; i += 2) {  // disjoint pairs: independent samples
+          const std::size_t o = l.offset(k, j, i);
+          if (region && (!(*region)[o] || !(*region)[o + 1])) continue;
+          if (!deep(k, j, i) || !deep(k, j, i + 1)) continue;
+          diff.push_back(static_cast<double>(image[o + 1]) - image[o]);
+          sum += static_cast<double>(image[o]) + image[o + 1];
+        }
+    if (diff.size() < 2000) continue;
+    st.pairs = diff.size();
+    st.depth = depth;
+    st.mean = sum / (2.0 * static_cast<double>(diff.size()));
+    // Robust sd of the difference (1.4826 MAD about 0), / sqrt 2 for one voxel.
+    for (double& d : diff) d = std::abs(d);
+    const auto mid = diff.begin() + static_cast<std::ptrdiff_t>(diff.size() / 2);
+    std::nth_element(diff.begin(), mid, diff.end());
+    st.sigma = 1.4826 * *mid / std::numbers::sqrt2;
+    return st;
+  }
+  return st;
+}
+
 double meanEstimatorEdgeBiasVoxels(const PhaseLevels& L, double blur) {
   if (L.model == NoiseModel::Gaussian || !(blur > 0.02) || !(L.noiseSigma > 0)) return 0.0;
   const double gs = ricianMean(L.solidSignal, L.noiseSigma);

@@ -47,9 +47,10 @@ ColumnFit fitColumn(const Grid<std::uint8_t>& indicator, const ColumnFitOptions&
 
 /// Options of refineColumn.
 struct ColumnRefineOptions {
-  int slabSlices = 32;  ///< slices per slab, as in fitColumn
-  int sectors = 16;     ///< angular sectors fitted on their own per slab, >= 6
-  int iterations = 2;   ///< re-centre and re-fit passes, >= 1
+  int slabSlices = 32;   ///< slices per slab, as in fitColumn
+  int sectors = 16;      ///< angular sectors fitted on their own per slab, >= 6
+  int iterations = 2;    ///< re-centre and re-fit passes, >= 1
+  bool squared = false;  ///< fit M^2 (MRI magnitude, Rician noise, signal-free wall): unbiased
 };
 
 /// Sub-voxel refinement on the grey `image` (after denoising): the radial profile about

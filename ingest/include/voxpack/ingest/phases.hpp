@@ -28,10 +28,23 @@ struct PhaseLevels {
 };
 
 /// Fits the levels from the values of `image` where `region` != 0 (null: everywhere).
-/// The noise sigma comes from the outer flank of the bright peak (a homogeneous phase:
-/// no partial-volume voxel lies beyond it).
+/// The noise sigma comes from the outer flank of the bright peak (MRI: the Rayleigh mode
+/// of the signal-free solid).
 PhaseLevels fitPhaseLevels(const Grid<float>& image, const Grid<std::uint8_t>* region,
                            bool voidBright, NoiseModel model);
+
+/// Mean and noise sigma of the voxels deep inside one phase of a preliminary segmentation.
+struct InteriorStats {
+  double mean = 0.0;      ///< mean reading (image units)
+  double sigma = 0.0;     ///< 1.4826 MAD of x-neighbour differences / sqrt 2
+  std::size_t pairs = 0;  ///< disjoint x pairs used (0: too few deep voxels)
+  int depth = 0;          ///< voxels of the phase required along +-x, y, z
+};
+
+/// Statistics of `image` over x pairs lying at least 3 (else 2) voxels deep inside `phase`
+/// of `indicator` (a homogeneous region: the blurred signal is flat there); >= 2000 pairs.
+InteriorStats phaseInteriorStats(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
+                                 const Grid<std::uint8_t>* region, std::uint8_t phase);
 
 /// Mean of a Rician variable of signal `a` and channel sigma `sigma`.
 double ricianMean(double a, double sigma);
