@@ -15,7 +15,7 @@ HERE=$(cd "$(dirname "$0")" && pwd)
 export FOAM_ETC=/usr/share/openfoam/etc WM_PROJECT_DIR=/usr/share/openfoam
 command -v snappyHexMesh >/dev/null || { echo "OpenFOAM missing: run $HERE/install_openfoam.sh"; exit 1; }
 mkdir -p "$WORK"; cd "$WORK"
-T=timings.txt; : > $T
+T=$PWD/timings.txt; : > $T
 step() {  # step NAME CAP_S CMD...: run with a wall cap, log wall time, peak RSS and load
   local name=$1 cap=$2; shift 2
   echo "$name: start $(uptime)" >> $T
