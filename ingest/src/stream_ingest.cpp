@@ -194,7 +194,7 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
     const std::size_t distinct = c == "unsigned_char" || c == "char"     ? 256
                                  : c == "unsigned_short" || c == "short" ? 65536
                                                                          : kMaxDistinctValues;
-    bytes += distinct * 48 + 1024 * 8;
+    bytes += distinct * 48 + 65536 * 8 + 1024 * 8;
   }
   return bytes + kProcessBaseBytes;
 }
@@ -265,6 +265,9 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   int passes = 1;
   if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
     ++passes;
+    // Integer grey values 0..65535 (8/16-bit files) are counted in a flat array (fast); any
+    // other value in the hash map.
+    std::vector<std::uint64_t> small(65536, 0);
     std::unordered_map<float, std::uint64_t> counts;
     bool overflow = false;
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
@@ -277,7 +280,9 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       for (float v : img.values()) {
         lo = std::min(lo, v);
         hi = std::max(hi, v);
-        if (!overflow) {
+        if (v >= 0.0f && v < 65536.0f && v == std::floor(v)) {
+          ++small[static_cast<std::size_t>(v)];
+        } else if (!overflow) {
           ++counts[v];
           if (counts.size() > kMaxDistinctValues) {
             overflow = true;
@@ -288,6 +293,8 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     }
     std::vector<std::pair<float, std::uint64_t>> sorted(counts.begin(), counts.end());
     counts = {};
+    for (std::size_t v = 0; v < small.size(); ++v)
+      if (small[v] > 0) sorted.emplace_back(static_cast<float>(v), small[v]);
     std::sort(sorted.begin(), sorted.end());
     constexpr int kBins = 1024;  // otsuThreshold's default
     std::vector<double> bins(kBins, 0.0);

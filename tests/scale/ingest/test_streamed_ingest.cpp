@@ -138,16 +138,23 @@ void expectSameBed(const IngestRun& mem, const IngestRun& str, const std::string
   EXPECT_EQ(mem.bed.lattice(), str.bed.lattice()) << what;
   EXPECT_TRUE(mem.bed.indicator.values() == str.bed.indicator.values()) << what;
   ASSERT_EQ(mem.bed.mask.has_value(), str.bed.mask.has_value()) << what;
-  if (mem.bed.mask) EXPECT_TRUE(mem.bed.mask->values() == str.bed.mask->values()) << what;
+  if (mem.bed.mask) {
+    EXPECT_TRUE(mem.bed.mask->values() == str.bed.mask->values()) << what;
+  }
   EXPECT_EQ(mem.report["threshold"]["value"], str.report["threshold"]["value"]) << what;
   EXPECT_EQ(mem.report["cleanup"], str.report["cleanup"]) << what;
   EXPECT_EQ(mem.report["porosity"], str.report["porosity"]) << what;
-  EXPECT_EQ(mem.report["threshold"]["porosity_segmented_region"],
-            str.report["threshold"]["porosity_segmented_region"])
-      << what;
-  EXPECT_EQ(mem.report["quality"]["voxels_per_diameter"],
-            str.report["quality"]["voxels_per_diameter"])
-      << what;
+  // The core region's numbers (report only) agree when in-memory ingest did not fit a
+  // blur at the wall of a given column: it then widens the core margin, which the
+  // streamed path (no wall-step fit) does not.
+  if (mem.report["quality"]["blur_mm"].is_null()) {
+    EXPECT_EQ(mem.report["threshold"]["porosity_segmented_region"],
+              str.report["threshold"]["porosity_segmented_region"])
+        << what;
+    EXPECT_EQ(mem.report["quality"]["voxels_per_diameter"],
+              str.report["quality"]["voxels_per_diameter"])
+        << what;
+  }
 }
 
 // In-memory ingest of a small grey NRRD against streamed ingest with slabs of 1, 4 and 11
@@ -164,8 +171,9 @@ void expectStreamedEqualsInMemory(const std::vector<std::string>& opts) {
     s.insert(s.end(), {"--slab-voxels", planes});
     const IngestRun str = runIngest(in, tmp / ("s" + planes + ".h5"), s);
     expectSameBed(mem, str, what + "--slab-voxels " + planes);
-    if (str.cli.exitCode == 0)
+    if (str.cli.exitCode == 0) {
       EXPECT_EQ(str.report["streamed"]["slab_planes"].get<int>(), std::stoi(planes));
+    }
   }
 }
 
