@@ -92,7 +92,9 @@ TEST(ExtremePackMc, ReboundProbabilityZeroAndOne) {
     // DISABLED_ReboundProbabilityOneEndsByItsCap holds that defect.
     const std::string status = r.info["provenance"]["status"].get<std::string>();
     EXPECT_NE(r.cli.out.find("status " + status), std::string::npos) << r.cli.out;
-    if (std::string(p) == "0") EXPECT_EQ(status, "settled");
+    if (std::string(p) == "0") {
+      EXPECT_EQ(status, "settled");
+    }
   }
 }
 
