@@ -13,6 +13,7 @@
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/parallel.hpp"
+#include "voxpack/stats/bed_stats.hpp"
 #include "voxpack/stats/crop.hpp"
 #include "voxpack/stats/distributed.hpp"
 #include "voxpack/stats/stats.hpp"
@@ -171,72 +172,15 @@ class StatsCommand final : public Command {
     return 0;
   }
 
-  // [lowest mask slice + 2 d, highest particle centre - 2 d]: the interior of a poured
-  // bed, free of the floor's ordering and of the loose top layer.
-  static stats::CropOptions bedWindow(const Bed& bed, double d) {
-    if (bed.particles.empty())
-      throw InputError("--bed-window: " + std::string("the bed has no particle table"));
-    const Lattice& l = bed.lattice();
-    std::int64_t first = -1;
-    const std::size_t plane = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
-    for (std::int64_t k = 0; k < l.dims[0] && first < 0; ++k)
-      for (std::size_t o = 0; o < plane; ++o)
-        if (!bed.mask || (*bed.mask)[static_cast<std::size_t>(k) * plane + o]) {
-          first = k;
-          break;
-        }
-    if (first < 0) throw InputError("--bed-window: the mask is empty");
-    double top = -1e300;
-    for (const Vec3& p : bed.particles.positionMm) top = std::max(top, p.z());
-    const double z0 = l.originMm[0] + static_cast<double>(first) * l.spacingMm[0] + 2 * d;
-    const double z1 = top - 2 * d;
-    if (!(z1 > z0))
-      throw InputError("--bed-window: the bed is shallower than 4 particle diameters");
-    stats::CropOptions c;
-    c.zMm = stats::RangeMm{z0, z1};
-    return c;
-  }
-
   nlohmann::json inMemory_(const GlobalOptions& global,
                            const std::optional<stats::CropOptions>& roi, bool packedAuto,
                            Progress& progress) {
-    Bed bed = readBed(input_, global.memory);
-    nlohmann::json roiRecord = nullptr;
-    if (roi) {
-      stats::CropBox box;
-      // Assigning frees the uncropped bed: statistics then run on the ROI alone.
-      bed = stats::cropBed(bed, *roi, &box);
-      roiRecord = stats::roiJson(*roi, box);
-    }
-    if (bedWindow_) {
-      const stats::CropOptions w = bedWindow(bed, o_.particleDiameterMm);
-      stats::CropBox box;
-      bed = stats::cropBed(bed, w, &box);
-      roiRecord = stats::roiJson(w, box);
-      roiRecord["bed_window_diameters"] = 2;
-    }
-    const stats::PackedSlices packed = stats::packedSlices(stats::sliceCounts(bed));
-    const bool apply = packedAuto && packed.found;
-    const nlohmann::json packedRecord =
-        stats::packedRegionJson(packed, bed.lattice(), packedAuto ? "auto" : "off", apply);
-    if (!packedAuto && packed.headspaceFraction > 0.10)
-      progress.message(
-          "warning: " + input_ + ": " +
-          std::to_string(static_cast<int>(std::lround(100 * packed.headspaceFraction))) +
-          " % of the mask lies outside the packed region (headspace or end walls) "
-          "and is included; pass --packed-region auto to exclude it");
-    if (apply) {
-      const Lattice& l = bed.lattice();
-      stats::CropOptions z;
-      z.zMm =
-          stats::RangeMm{l.originMm[0] + static_cast<double>(packed.firstSlice) * l.spacingMm[0],
-                         l.originMm[0] + static_cast<double>(packed.lastSlice) * l.spacingMm[0]};
-      bed = stats::cropBed(bed, z);
-    }
-    nlohmann::json stats = stats::computeStats(bed, o_, progress);
-    stats["roi_mm"] = roiRecord;
-    stats["packed_region"] = packedRecord;
-    return stats;
+    stats::BedStatsRequest request;
+    request.roi = roi;
+    request.bedWindow = bedWindow_;
+    request.packedAuto = packedAuto;
+    request.inputName = input_;
+    return stats::computeBedStats(readBed(input_, global.memory), o_, request, progress);
   }
 };
 

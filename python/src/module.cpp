@@ -30,6 +30,7 @@
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/parallel.hpp"
 #include "voxpack/core/version.hpp"
+#include "voxpack/stats/bed_stats.hpp"
 #include "voxpack/stats/crop.hpp"
 #include "voxpack/stats/profiles.hpp"
 #include "voxpack/stats/stats.hpp"
@@ -212,31 +213,6 @@ T option(const py::dict& d, const char* key, T fallback) {
   return d[key].cast<T>();
 }
 
-// --bed-window of app/cmd_stats.cpp (a static helper there, copied until the stats library
-// has it): [lowest mask slice + 2 d, highest particle centre - 2 d].
-stats::CropOptions bedWindow(const Bed& bed, double d) {
-  if (bed.particles.empty())
-    throw InputError("--bed-window: " + std::string("the bed has no particle table"));
-  const Lattice& l = bed.lattice();
-  std::int64_t first = -1;
-  const std::size_t plane = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
-  for (std::int64_t k = 0; k < l.dims[0] && first < 0; ++k)
-    for (std::size_t o = 0; o < plane; ++o)
-      if (!bed.mask || (*bed.mask)[static_cast<std::size_t>(k) * plane + o]) {
-        first = k;
-        break;
-      }
-  if (first < 0) throw InputError("--bed-window: the mask is empty");
-  double top = -1e300;
-  for (const Vec3& p : bed.particles.positionMm) top = std::max(top, p.z());
-  const double z0 = l.originMm[0] + static_cast<double>(first) * l.spacingMm[0] + 2 * d;
-  const double z1 = top - 2 * d;
-  if (!(z1 > z0)) throw InputError("--bed-window: the bed is shallower than 4 particle diameters");
-  stats::CropOptions c;
-  c.zMm = stats::RangeMm{z0, z1};
-  return c;
-}
-
 // The body of `voxpack stats` (app/cmd_stats.cpp, its in-memory path) for an in-memory bed:
 // the same option parsing and checks, the same ROI / bed-window / packed-region crops,
 // computeStats and the same extra keys.
@@ -295,40 +271,14 @@ py::object statsPy(const py::object& bedArg, const py::dict& opt, py::object pro
   }();
   PyProgress hook(std::move(progress), std::move(message));
   nlohmann::json result = runReleased(hook, [&] {
-    nlohmann::json roiRecord = nullptr;
-    if (roi) {
-      stats::CropBox box;
-      bed = stats::cropBed(bed, *roi, &box);
-      roiRecord = stats::roiJson(*roi, box);
-    }
-    if (window) {
-      const stats::CropOptions w = bedWindow(bed, o.particleDiameterMm);
-      stats::CropBox box;
-      bed = stats::cropBed(bed, w, &box);
-      roiRecord = stats::roiJson(w, box);
-      roiRecord["bed_window_diameters"] = 2;
-    }
-    const stats::PackedSlices packed = stats::packedSlices(stats::sliceCounts(bed));
-    const bool apply = packedAuto && packed.found;
-    const nlohmann::json packedRecord =
-        stats::packedRegionJson(packed, bed.lattice(), packedMode, apply);
-    if (!packedAuto && packed.headspaceFraction > 0.10)
-      hook.message("warning: " + inputName + ": " +
-                   std::to_string(static_cast<int>(std::lround(100 * packed.headspaceFraction))) +
-                   " % of the mask lies outside the packed region (headspace or end walls) "
-                   "and is included; pass --packed-region auto to exclude it");
-    if (apply) {
-      const Lattice& l = bed.lattice();
-      stats::CropOptions z;
-      z.zMm =
-          stats::RangeMm{l.originMm[0] + static_cast<double>(packed.firstSlice) * l.spacingMm[0],
-                         l.originMm[0] + static_cast<double>(packed.lastSlice) * l.spacingMm[0]};
-      bed = stats::cropBed(bed, z);
-    }
-    nlohmann::json s = stats::computeStats(bed, o, hook);
-    s["roi_mm"] = roiRecord;
-    s["packed_region"] = packedRecord;
-    s["input_provenance"] = bed.provenance;
+    const nlohmann::json provenance = bed.provenance;
+    stats::BedStatsRequest request;
+    request.roi = roi;
+    request.bedWindow = window;
+    request.packedAuto = packedAuto;
+    request.inputName = inputName;
+    nlohmann::json s = stats::computeBedStats(std::move(bed), o, request, hook);
+    s["input_provenance"] = provenance;
     sanitizeNonFinite(s);  // what writeJsonFile does before the CLI writes its file
     return s;
   });
