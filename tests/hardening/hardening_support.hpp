@@ -1,10 +1,12 @@
 #pragma once
 // Helpers of the hardening suite: timed CLI runs and runs interrupted by a signal.
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include "cli_runner.hpp"
+#include "voxpack/core/bed.hpp"
 
 namespace voxpack::test {
 
@@ -96,6 +99,33 @@ inline SignalResult runAndSignal(const std::vector<std::string>& args, int sig,
   r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   r.err = fileText(errFile);
   return r;
+}
+
+/// Bytes of two grids equal (same size, memcmp).
+template <class T>
+bool sameBytes(const Grid<T>& a, const Grid<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+/// Every dataset and the particle table of two beds equal byte for byte (gtest checks).
+inline void expectSameBed(const Bed& a, const Bed& b) {
+  ASSERT_EQ(a.lattice(), b.lattice());
+  EXPECT_TRUE(sameBytes(a.indicator, b.indicator));
+  ASSERT_TRUE(a.labels && b.labels && a.mask && b.mask);
+  EXPECT_TRUE(sameBytes(*a.labels, *b.labels));
+  EXPECT_TRUE(sameBytes(*a.mask, *b.mask));
+  ASSERT_EQ(a.particles.size(), b.particles.size());
+  for (std::size_t p = 0; p < a.particles.size(); ++p) {
+    EXPECT_EQ(std::memcmp(a.particles.positionMm[p].data(), b.particles.positionMm[p].data(),
+                          3 * sizeof(double)),
+              0)
+        << p;
+    EXPECT_EQ(std::memcmp(a.particles.orientation[p].coeffs().data(),
+                          b.particles.orientation[p].coeffs().data(), 4 * sizeof(double)),
+              0)
+        << p;
+    EXPECT_EQ(a.particles.shape[p], b.particles.shape[p]);
+  }
 }
 
 }  // namespace voxpack::test

@@ -18,35 +18,6 @@ using namespace voxpack;
 using namespace voxpack::packer;
 using namespace voxpack::test;
 
-namespace {
-
-template <class T>
-bool sameBytes(const Grid<T>& a, const Grid<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
-
-void expectSameBed(const Bed& a, const Bed& b) {
-  ASSERT_EQ(a.lattice(), b.lattice());
-  EXPECT_TRUE(sameBytes(a.indicator, b.indicator));
-  ASSERT_TRUE(a.labels && b.labels && a.mask && b.mask);
-  EXPECT_TRUE(sameBytes(*a.labels, *b.labels));
-  EXPECT_TRUE(sameBytes(*a.mask, *b.mask));
-  ASSERT_EQ(a.particles.size(), b.particles.size());
-  for (std::size_t p = 0; p < a.particles.size(); ++p) {
-    EXPECT_EQ(std::memcmp(a.particles.positionMm[p].data(), b.particles.positionMm[p].data(),
-                          3 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(std::memcmp(a.particles.orientation[p].coeffs().data(),
-                          b.particles.orientation[p].coeffs().data(), 4 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(a.particles.shape[p], b.particles.shape[p]);
-  }
-}
-
-}  // namespace
-
 // The CLI end to end: kill -9 mid-run (no chance to clean up), resume, compare the bytes
 // of every dataset with the uninterrupted run.
 TEST(McResume, CliKillMidRunThenResumeEqualsUninterrupted) {
