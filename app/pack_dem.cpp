@@ -134,6 +134,13 @@ class DemMode final : public PackMode {
           const GlobalOptions& global) override {
     const auto t0 = std::chrono::steady_clock::now();
     DemOptions o;
+    if (!scene.resumeState.is_null()) {
+      // The options the checkpointed run had (runDem checks its identity again).
+      if (!scene.resumeState.is_object() || !scene.resumeState.contains("identity") ||
+          !scene.resumeState["identity"].contains("options"))
+        throw FormatError("--resume " + scene.resume.string() + ": not a DEM state");
+      o = packer::dem::optionsFromJson(scene.resumeState["identity"]["options"]);
+    }
     const auto& keys = demKeys();
     const std::string cfg = scene.config.string();
     if (table) {
@@ -186,7 +193,17 @@ class DemMode final : public PackMode {
     ds.seed = scene.seed;
 
     CommandProgress progress(global);
-    const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress);
+    packer::dem::DemCheckpointing ckpt;
+    if (!scene.checkpoint.empty()) {
+      ckpt.everySeconds = scene.checkpointEverySeconds;
+      ckpt.write = [&scene](const nlohmann::json& state) {
+        writeCheckpointFile(scene, "dem", state);
+      };
+    }
+    if (!scene.resumeState.is_null()) ckpt.resume = &scene.resumeState;
+    if (!scene.from.empty())
+      throw UsageError("--from is not available yet (docs/dem.md); use --resume CHECKPOINT");
+    const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress, ckpt);
     // A cancelled run (signal, or a Python KeyboardInterrupt through the hook) writes no
     // partial bed: the caller gets Cancelled, as from the Monte Carlo walk.
     if (r.status == packer::dem::DemStatus::kCancelled)

@@ -52,13 +52,55 @@ void keepGoodState(const DemSystem& sys, GoodState& g) {
   g.timeS = sys.timeS();
 }
 
+// The identity of a run: what a checkpoint must share with the run that resumes it.
+nlohmann::json runIdentity(const DemScene& scene, const DemOptions& options, const DemSystem& sys,
+                           std::int64_t count, std::int64_t initialCount, double bedHeightMm) {
+  nlohmann::json shapes = nlohmann::json::array();
+  for (std::size_t s = 0; s < scene.shapes.size(); ++s)
+    shapes.push_back(
+        {scene.shapes[s]->spec(), s < scene.fractions.size() ? scene.fractions[s] : 1.0});
+  const Vec3 lo = scene.container->minMm(), hi = scene.container->maxMm();
+  return {{"options", toJson(options)},
+          {"seed", scene.seed},
+          {"shapes", shapes},
+          {"voxel_size_mm", scene.voxelSizeMm},
+          {"count", count},
+          {"fill_height_mm", scene.fillHeightMm},
+          {"initial_particles", initialCount},
+          {"container_bounds_mm", {lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()}},
+          {"bed_height_mm", bedHeightMm},
+          {"stiffness_n_mm3", sys.stiffnessNPerMm3()},
+          {"time_step_s", sys.timeStepS()}};
+}
+
 }  // namespace
 
-DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress) {
+DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress,
+                 const DemCheckpointing& checkpointing) {
   const auto wallStart = std::chrono::steady_clock::now();
   if (scene.shapes.empty()) throw InputError("dem: no shape");
   if (!scene.container) throw InputError("dem: no container");
-  if (scene.count < 0 || (scene.count == 0 && !(scene.fillHeightMm > 0)))
+  const nlohmann::json* resume = checkpointing.resume;
+  if (resume) {
+    try {
+      if (!resume->is_object() || resume->value("format", "") != "voxpack-dem-state" ||
+          resume->value("version", 0) != 1)
+        throw FormatError("checkpoint: not a DEM state of version 1");
+    } catch (const nlohmann::json::exception& e) {
+      throw FormatError(std::string("checkpoint: malformed DEM state (") + e.what() + ")");
+    }
+  }
+  // Particles at the start: from the bed (--from), or those a resumed run started with
+  // (its state holds them all; only their number and volume sized the stiffness).
+  std::int64_t initialCount = static_cast<std::int64_t>(scene.initial.size());
+  if (resume) {
+    const auto& id = resume->at("identity");
+    if (!id.is_object() || !id.contains("initial_particles") ||
+        !id["initial_particles"].is_number_integer())
+      throw FormatError("checkpoint: DEM state without its identity");
+    initialCount = id["initial_particles"].get<std::int64_t>();
+  }
+  if (scene.count < 0 || (scene.count == 0 && !(scene.fillHeightMm > 0) && initialCount == 0))
     throw InputError("dem: give --count N > 0 or --fill-height MM > 0");
   std::vector<double> cum;
   double total = 0;
@@ -84,11 +126,27 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   const double area = crossSectionMm2(box);
   if (!(area > 0)) throw InputError("dem: the container has no interior cross-section");
   const Vec3 lo = box.minMm(), hi = box.maxMm();
+  // The starting particles by template (their spec must be one of the scene's shapes).
+  std::vector<std::size_t> initialTemplate;
+  double initialVolume = 0;
+  for (std::size_t i = 0; i < scene.initial.size(); ++i) {
+    std::size_t t = templates.size();
+    for (std::size_t s = 0; s < scene.shapes.size() && t == templates.size(); ++s)
+      if (scene.shapes[s]->spec() == scene.initial.shape[i]) t = s;
+    if (t == templates.size())
+      throw InputError("dem: starting particle " + std::to_string(i) + " has shape " +
+                       scene.initial.shape[i] + ", which is not one of the scene's shapes");
+    initialTemplate.push_back(t);
+    initialVolume += scene.shapes[t]->volumeMm3();
+  }
   std::int64_t count = scene.count;
-  if (count == 0)
-    count = static_cast<std::int64_t>(
-        std::ceil(scene.fillHeightMm * area * options.fillHeightPhiGuess / vMean));
-  const double bedHeight = static_cast<double>(count) * vMean / (0.6 * area);
+  if (count == 0 && scene.fillHeightMm > 0)
+    count = std::max<std::int64_t>(
+        0, static_cast<std::int64_t>(std::ceil(
+               (scene.fillHeightMm * area * options.fillHeightPhiGuess - initialVolume) / vMean)));
+  // The auto stiffness follows the weight of the whole bed, the starting one included.
+  double bedHeight = (static_cast<double>(count) * vMean + initialVolume) / (0.6 * area);
+  if (resume) bedHeight = resume->at("identity").value("bed_height_mm", -1.0);
 
   DemSystem sys(templates, scene.container, options);
   DemResult result;
@@ -97,12 +155,15 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     result.messages.push_back(warning);
     progress.message(warning);
   }
+  const nlohmann::json identity = runIdentity(scene, options, sys, count, initialCount, bedHeight);
   const double dt = sys.timeStepS();
   {
     std::ostringstream m;
-    m << "dem: " << count << " particles, face stiffness " << sys.stiffnessNPerMm3()
-      << " N/mm^3, contact time t_c " << sys.contactTimeS() << " s, time step " << dt << " s (t_c/"
-      << sys.contactTimeS() / dt << "), nodes per particle " << templates.front().nodeP.size();
+    m << "dem: " << count << " particles";
+    if (initialCount > 0) m << " poured onto " << initialCount << " of the starting bed";
+    m << ", face stiffness " << sys.stiffnessNPerMm3() << " N/mm^3, contact time t_c "
+      << sys.contactTimeS() << " s, time step " << dt << " s (t_c/" << sys.contactTimeS() / dt
+      << "), nodes per particle " << templates.front().nodeP.size();
     result.messages.push_back(m.str());
     progress.message(m.str());
   }
@@ -115,13 +176,54 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
       1, static_cast<std::int64_t>(options.rainVolumeFraction * area * zoneHeight / vMean));
   const std::size_t checkSteps = static_cast<std::size_t>(std::max(1.0, std::round(0.002 / dt)));
 
+  // The driver's own state; with the system's, all a checkpoint needs.
   std::int64_t inserted = 0;
   double lastInsertS = 0;
   const double batchIntervalS = g > 0 ? std::sqrt(2 * zoneHeight / g) : 0.05;
   bool tapped = false;
-  GoodState lastGood;
-  DemStatus status = DemStatus::kTimeCap;
   double nextStatus = 0.25;
+  if (resume) {
+    try {
+      if (resume->at("identity") != identity)
+        throw InputError(
+            "checkpoint: it belongs to another DEM run (options, seed, shapes, count, container "
+            "or voxel size differ)");
+      const auto& d = resume->at("driver");
+      inserted = d.at("inserted").get<std::int64_t>();
+      lastInsertS = d.at("last_insert_s").get<double>();
+      tapped = d.at("tapped").get<bool>();
+      result.settleTimeS = d.at("settle_time_s").get<double>();
+      nextStatus = d.at("next_status_s").get<double>();
+      if (inserted < 0 || inserted > count)
+        throw FormatError("checkpoint: DEM injection count out of range");
+      sys.restoreState(resume->at("system"));
+      if (static_cast<std::int64_t>(sys.size()) < initialCount + inserted)
+        throw FormatError("checkpoint: DEM state holds fewer particles than it injected");
+    } catch (const nlohmann::json::exception& e) {
+      throw FormatError(std::string("checkpoint: malformed DEM state (") + e.what() + ")");
+    }
+  } else {
+    for (std::size_t i = 0; i < scene.initial.size(); ++i)
+      sys.addParticle(initialTemplate[i], scene.initial.positionMm[i],
+                      scene.initial.orientation[i]);
+  }
+  auto saveState = [&] {
+    return nlohmann::json{{"format", "voxpack-dem-state"},
+                          {"version", 1},
+                          {"identity", identity},
+                          {"driver",
+                           {{"inserted", inserted},
+                            {"last_insert_s", lastInsertS},
+                            {"tapped", tapped},
+                            {"settle_time_s", result.settleTimeS},
+                            {"next_status_s", nextStatus}}},
+                          {"system", sys.saveState()}};
+  };
+  const bool checkpointing_on = checkpointing.write && checkpointing.everySeconds > 0;
+  auto lastCheckpoint = std::chrono::steady_clock::now();
+  GoodState lastGood;
+  if (resume) keepGoodState(sys, lastGood);
+  DemStatus status = DemStatus::kTimeCap;
   while (true) {
     // Inject the next batch once the previous one has left its zone.
     if (inserted < count) {
@@ -131,7 +233,7 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
       // A batch falls its zone height in sqrt(2 H / g); the next one then starts above
       // everything, so a pour never drops particles from more than ~H + d/2.
       if (inserted == 0 || sys.timeS() - lastInsertS >= batchIntervalS) {
-        const double base = inserted == 0 ? lo.z() + 0.05 * dMax : maxTop + 0.5 * dMax;
+        const double base = sys.size() == 0 ? lo.z() + 0.05 * dMax : maxTop + 0.5 * dMax;
         std::vector<std::pair<Vec3, double>> placed;
         const std::int64_t want = std::min(batch, count - inserted);
         for (std::int64_t b = 0; b < want; ++b) {
@@ -174,10 +276,6 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
       break;
     }
     keepGoodState(sys, lastGood);
-    if (progress.cancelled()) {
-      status = DemStatus::kCancelled;
-      break;
-    }
     if (t >= nextStatus) {
       nextStatus += 0.25;
       double vMax = 0, ke = 0;
@@ -214,6 +312,21 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     if (t >= options.maxTimeS) {
       status = DemStatus::kTimeCap;
       break;
+    }
+    // Here, between two checks, the driver and the system are the whole state: a
+    // checkpoint by the clock, and one when the run is cancelled.
+    if (progress.cancelled()) {
+      if (checkpointing_on) checkpointing.write(saveState());
+      status = DemStatus::kCancelled;
+      break;
+    }
+    if (checkpointing_on) {
+      const auto now = std::chrono::steady_clock::now();
+      if (std::chrono::duration<double>(now - lastCheckpoint).count() >=
+          checkpointing.everySeconds) {
+        checkpointing.write(saveState());
+        lastCheckpoint = now;
+      }
     }
   }
 

@@ -11,7 +11,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -255,6 +257,16 @@ class DemSystem {
   /// overlap measures cover the whole bed (sleeping pairs are otherwise skipped). For the end
   /// of a run: the tangential springs are refreshed.
   void measureAllContacts();
+  /// Everything that drives the trajectory, exactly (docs/dem.md, "Checkpoints"): poses as
+  /// stored (principal axes), velocities, angular momenta, the last forces, springs of
+  /// pairs and walls, node lists, neighbour list, sleeping windows, tap phase, time, step
+  /// counters. Between two steps of a resolved, finite system.
+  nlohmann::json saveState() const;
+  /// Replaces the particles and the integrator state by `state` (from saveState() of a
+  /// system with the same templates, container and options, resolved the same way):
+  /// stepping on gives the bits the saved system would have given. FormatError when the
+  /// state is malformed or does not fit the templates.
+  void restoreState(const nlohmann::json& state);
 
  private:
   struct Impl;
@@ -267,10 +279,37 @@ struct DemScene {
   std::vector<double> fractions;                        ///< number fractions (normalised)
   std::shared_ptr<const DemContainer> container;        ///< vessel
   double voxelSizeMm = 0.3;                             ///< surface node spacing
-  std::int64_t count = 0;                               ///< particles (or 0 with fillHeight)
-  double fillHeightMm = 0;                              ///< pack to this height (0 = unused)
-  std::uint64_t seed = 0;                               ///< random seed
+  /// Particles to pour (or 0 with fillHeight; with `initial`, 0 = pour none, only settle
+  /// and tap).
+  std::int64_t count = 0;
+  double fillHeightMm = 0;  ///< pack to this height (0 = unused)
+  std::uint64_t seed = 0;   ///< random seed
+  /// Particles present at the start, at rest (pack --from BED.h5): each spec must be one of
+  /// `shapes` (a shape only the start holds has fraction 0). New ones are poured on top.
+  ParticleTable initial;
 };
+
+/// Resumable checkpoints of a run. A state is taken between two checks of the driver
+/// (every ~2 ms simulated) and holds the whole DemSystem state (DemSystem::saveState) and
+/// where the driver is (particles injected, last injection time, tap started, settle time);
+/// injection draws are keyed by seed and particle index, so a resumed run continues with
+/// exactly the draws and the bits of the uninterrupted one, for any thread count.
+struct DemCheckpointing {
+  double everySeconds = 0;  ///< wall seconds between states (0 = never)
+  /// Stores one state (the caller writes it atomically); also called once when the run is
+  /// cancelled, so an interrupted run can be resumed from where it stopped.
+  std::function<void(const nlohmann::json& state)> write;
+  /// A state to continue from (from `write`), or null to start afresh. InputError when it
+  /// belongs to another scene or other options (threads excepted); FormatError when it is
+  /// not a DEM state of this version.
+  const nlohmann::json* resume = nullptr;
+};
+
+/// The options as a JSON object: every field that changes a trajectory (not the threads
+/// or the parallel thresholds). A checkpoint's identity; optionsFromJson() reads it back.
+nlohmann::json toJson(const DemOptions& options);
+/// The options of toJson(); FormatError on a missing or mistyped field.
+DemOptions optionsFromJson(const nlohmann::json& j);
 
 /// Result of a packing run.
 struct DemResult {
@@ -289,7 +328,9 @@ struct DemResult {
   std::vector<std::string> messages;       ///< chosen settings and warnings
 };
 
-/// Pours scene.count particles in batches, settles, taps, settles again.
-DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress);
+/// Pours scene.count particles in batches (on top of scene.initial), settles, taps, settles
+/// again; checkpoints and resumes through `checkpointing`.
+DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress,
+                 const DemCheckpointing& checkpointing = {});
 
 }  // namespace voxpack::packer::dem
