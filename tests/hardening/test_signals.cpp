@@ -4,12 +4,14 @@
 // checked the same way by hand (docs/reliability.md); their tests belong to their modules.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
 #include <fstream>
 
 #include "cli_runner.hpp"
 #include "hardening_support.hpp"
 #include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/interrupt.hpp"
 #include "voxpack/core/random.hpp"
 
 using namespace voxpack;
@@ -53,4 +55,23 @@ TEST(Signals, SigtermDuringMcPackExits143WithoutOutput) {
        "--voxel-size", "0.1", "--count", "3000", "--seed", "1", "-o", (out / "bed.h5").string()},
       SIGTERM, tmp / "err.txt");
   expectInterrupted(r, SIGTERM, out, {});
+}
+
+// A mutated bed file (found by fuzz_bed_reader) makes libhdf5 loop inside H5Aread, where
+// no poll is reached: `timeout 20 voxpack info` used to run for 15 CPU minutes because the
+// one SIGTERM only set the flag. The grace alarm now ends it with 143 within seconds.
+TEST(Signals, SigtermEndsACommandStuckInsideLibhdf5WithinTheGracePeriod) {
+  TempDir tmp;
+  const std::string hang = std::string(VOXPACK_SOURCE_DIR) +
+                           "/fuzz/findings/bed_reader/"
+                           "timeout-acb82eb23d8e2d1c4893677c6f52b0052be1f38a";
+  ASSERT_TRUE(std::filesystem::exists(hang));
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = runAndSignal({"info", hang}, SIGTERM, tmp / "err.txt", 60);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(r.wasRunning) << "info ended before the signal: " << r.err;
+  EXPECT_TRUE(r.exited) << "killed instead of exiting";
+  EXPECT_EQ(r.exitCode, 143) << r.err;
+  EXPECT_NE(r.err.find("error: interrupted (signal 15)"), std::string::npos) << r.err;
+  EXPECT_LT(s, 2.5 + kInterruptGraceSeconds + 5) << "took " << s << " s";
 }

@@ -5,7 +5,12 @@
 
 namespace voxpack {
 
-/// Installs SIGINT and SIGTERM handlers that only set the interrupt flag.
+/// Seconds a command has, after SIGINT/SIGTERM, to reach a poll and stop cleanly before
+/// the process exits anyway (128 + signal, with no clean-up of temporaries).
+inline constexpr unsigned kInterruptGraceSeconds = 10;
+
+/// Installs SIGINT and SIGTERM handlers that set the interrupt flag; a second signal, or
+/// kInterruptGraceSeconds without a clean stop, exits at once with 128 + signal.
 void installInterruptHandlers();
 
 /// True once SIGINT or SIGTERM arrived (after installInterruptHandlers).
