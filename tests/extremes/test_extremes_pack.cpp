@@ -86,15 +86,12 @@ TEST(ExtremePackMc, ReboundProbabilityZeroAndOne) {
                                              "--mc-max-sweeps", "1000"}));
     ASSERT_EQ(r.cli.exitCode, 0) << "p_r " << p;
     EXPECT_EQ(r.info["particles"], 6) << "p_r " << p;
-    // The status is stored and printed (p_r = 0 settles, after 420 sweeps with seed 3).
-    // p_r = 1 should end by its cap
-    // but is called settled by the one-sided settling test: McBands.
-    // DISABLED_ReboundProbabilityOneEndsByItsCap holds that defect.
+    // The status is stored and printed: p_r = 0 settles (after 420 sweeps with seed 3),
+    // p_r = 1 has no drift to settle by and ends by its cap (McBands.
+    // ReboundProbabilityOneEndsByItsCap holds the library side).
     const std::string status = r.info["provenance"]["status"].get<std::string>();
     EXPECT_NE(r.cli.out.find("status " + status), std::string::npos) << r.cli.out;
-    if (std::string(p) == "0") {
-      EXPECT_EQ(status, "settled");
-    }
+    EXPECT_EQ(status, std::string(p) == "0" ? "settled" : "cap_reached") << "p_r " << p;
   }
 }
 

@@ -416,7 +416,10 @@ McStatus McPacker::settle(double pr, SettleState& st) {
     }
     mean /= static_cast<double>(std::max<std::size_t>(alive, 1));
     report();
-    if (havePrev && prevMean - mean < o_.settleTolerance * prevMean &&
+    // The downward drift of the walk is proportional to 1 - p_r: at p_r = 1 there is
+    // nothing to settle to, and a gas whose mean height has stopped falling would pass the
+    // test by chance (seed 3 was called settled after 180 sweeps). Such a run ends by its cap.
+    if (pr < 1.0 && havePrev && prevMean - mean < o_.settleTolerance * prevMean &&
         maxFall <= o_.settleMaxFallDiameters * diameterMm_) {
       status = McStatus::Settled;
       break;
