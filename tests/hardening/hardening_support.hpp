@@ -41,6 +41,45 @@ inline std::string fileText(const std::filesystem::path& p) {
   return ss.str();
 }
 
+/// Starts `voxpack ARGS` in a child process (stdout to /dev/null, stderr to errFile) and
+/// returns its pid without waiting.
+inline pid_t spawnVoxpack(const std::vector<std::string>& args,
+                          const std::filesystem::path& errFile = "/dev/null") {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<std::string> all{VOXPACK_BINARY};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    if (!freopen("/dev/null", "w", stdout) || !freopen(errFile.c_str(), "w", stderr)) _exit(127);
+    execv(VOXPACK_BINARY, argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+/// Starts `voxpack ARGS` (a run that writes the checkpoint `ckpt`), SIGKILLs it as soon as
+/// the checkpoint file appears (at most 60 s), and tells whether it died of that kill (false
+/// when it finished first). kill -9 gives the run no chance to clean up.
+inline bool killAfterFirstCheckpoint(const std::vector<std::string>& args,
+                                     const std::filesystem::path& ckpt) {
+  const pid_t pid = spawnVoxpack(args);
+  int status = 0;
+  for (int t = 0; t < 6000; ++t) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return false;
+    if (std::filesystem::exists(ckpt)) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return WIFSIGNALED(status);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return false;
+}
+
 /// What an interrupted run did.
 struct SignalResult {
   int exitCode = -1;        ///< exit status (128 + signal when killed by it)
@@ -55,17 +94,7 @@ struct SignalResult {
 inline SignalResult runAndSignal(const std::vector<std::string>& args, int sig,
                                  const std::filesystem::path& errFile, double timeoutS = 60) {
   SignalResult r;
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<std::string> all{VOXPACK_BINARY};
-    all.insert(all.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    if (!freopen("/dev/null", "w", stdout) || !freopen(errFile.c_str(), "w", stderr)) _exit(127);
-    execv(VOXPACK_BINARY, argv.data());
-    _exit(127);
-  }
+  const pid_t pid = spawnVoxpack(args, errFile);
   const auto t0 = std::chrono::steady_clock::now();
   const auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -107,6 +136,20 @@ bool sameBytes(const Grid<T>& a, const Grid<T>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 
+/// Two particle tables equal: positions and orientations bit for bit, shapes (gtest checks).
+inline void expectSameParticles(const ParticleTable& a, const ParticleTable& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t p = 0; p < a.size(); ++p) {
+    EXPECT_EQ(std::memcmp(a.positionMm[p].data(), b.positionMm[p].data(), 3 * sizeof(double)), 0)
+        << p;
+    EXPECT_EQ(std::memcmp(a.orientation[p].coeffs().data(), b.orientation[p].coeffs().data(),
+                          4 * sizeof(double)),
+              0)
+        << p;
+    EXPECT_EQ(a.shape[p], b.shape[p]);
+  }
+}
+
 /// Every dataset and the particle table of two beds equal byte for byte (gtest checks).
 inline void expectSameBed(const Bed& a, const Bed& b) {
   ASSERT_EQ(a.lattice(), b.lattice());
@@ -114,18 +157,7 @@ inline void expectSameBed(const Bed& a, const Bed& b) {
   ASSERT_TRUE(a.labels && b.labels && a.mask && b.mask);
   EXPECT_TRUE(sameBytes(*a.labels, *b.labels));
   EXPECT_TRUE(sameBytes(*a.mask, *b.mask));
-  ASSERT_EQ(a.particles.size(), b.particles.size());
-  for (std::size_t p = 0; p < a.particles.size(); ++p) {
-    EXPECT_EQ(std::memcmp(a.particles.positionMm[p].data(), b.particles.positionMm[p].data(),
-                          3 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(std::memcmp(a.particles.orientation[p].coeffs().data(),
-                          b.particles.orientation[p].coeffs().data(), 4 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(a.particles.shape[p], b.particles.shape[p]);
-  }
+  expectSameParticles(a.particles, b.particles);
 }
 
 }  // namespace voxpack::test

@@ -5,6 +5,7 @@
 
 #include <cstring>
 
+#include "hardening_support.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/packer/container.hpp"
 #include "voxpack/packer/dem.hpp"
@@ -40,21 +41,10 @@ dem::DemOptions options(int threads) {
 }
 
 void expectSameTable(const dem::DemResult& a, const dem::DemResult& b) {
-  ASSERT_EQ(a.particles.size(), b.particles.size());
   EXPECT_EQ(a.status, b.status);
   EXPECT_EQ(a.counters.steps, b.counters.steps);
   EXPECT_EQ(a.counters.nodeEvaluations, b.counters.nodeEvaluations);
-  for (std::size_t p = 0; p < a.particles.size(); ++p) {
-    EXPECT_EQ(std::memcmp(a.particles.positionMm[p].data(), b.particles.positionMm[p].data(),
-                          3 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(std::memcmp(a.particles.orientation[p].coeffs().data(),
-                          b.particles.orientation[p].coeffs().data(), 4 * sizeof(double)),
-              0)
-        << p;
-    EXPECT_EQ(a.particles.shape[p], b.particles.shape[p]);
-  }
+  test::expectSameParticles(a.particles, b.particles);
 }
 
 }  // namespace

@@ -44,32 +44,8 @@ TEST(McResume, CliKillMidRunThenResumeEqualsUninterrupted) {
   auto b = args;
   b.insert(b.end(), {"-o", (tmp / "b_unused.h5").string(), "--checkpoint", ckpt.string(),
                      "--checkpoint-every", "0.05"});
-  // Progress shows on stderr once packing runs; wait for the first checkpoint, then kill.
-  const pid_t pid = fork();
-  if (pid == 0) {
-    std::vector<std::string> all{VOXPACK_BINARY};
-    all.insert(all.end(), b.begin(), b.end());
-    std::vector<char*> argv;
-    for (auto& s : all) argv.push_back(s.data());
-    argv.push_back(nullptr);
-    if (!freopen("/dev/null", "w", stdout) || !freopen("/dev/null", "w", stderr)) _exit(127);
-    execv(VOXPACK_BINARY, argv.data());
-    _exit(127);
-  }
-  bool killed = false;
-  int status = 0;
-  for (int t = 0; t < 6000; ++t) {
-    if (waitpid(pid, &status, WNOHANG) == pid) break;
-    if (std::filesystem::exists(ckpt)) {
-      // The run takes about 2 s; the first checkpoint comes after 0.05 s of walking.
-      kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      killed = WIFSIGNALED(status);
-      break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  ASSERT_TRUE(killed) << "the run ended before it could be killed mid-way";
+  ASSERT_TRUE(killAfterFirstCheckpoint(b, ckpt))
+      << "the run ended before it could be killed mid-way";
   EXPECT_FALSE(std::filesystem::exists(tmp / "b_unused.h5"));
   const auto rr =
       runVoxpack({"pack", "--resume", ckpt.string(), "-o", (tmp / "b.h5").string(), "--quiet"});
