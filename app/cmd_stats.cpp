@@ -48,6 +48,10 @@ class StatsCommand final : public Command {
     sub.add_option("--s2-max-lag-mm", o_.s2MaxLagMm,
                    "largest S2 lag (default: a quarter of the smallest extent, <= 64 voxels)");
     sub.add_flag("--s2-float", o_.s2Float, "S2 FFTs in single precision (faster, less exact)");
+    sub.add_option("--s2-tile-voxels", o_.s2TileVoxels,
+                   "streamed S2: cut each slab into y-x tiles this many voxels across (default: "
+                   "whole planes when they fit --memory-limit, else the cheapest tile that does)")
+        ->check(CLI::PositiveNumber);
     sub.add_option("--radial-bin-mm", o_.radialBinMm, "annulus width (default: one voxel)");
     sub.add_option("--mes-method", o_.mesMethod,
                    "mean empty space: lattice (13 directions), isotropic (CGAL rays) or both")

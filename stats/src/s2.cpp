@@ -53,6 +53,7 @@ struct Fftw<double> {
     return fftw_plan_guru64_dft(1, &d, hr, h, io, io, sign, FFTW_ESTIMATE);
   }
   static void execute(Plan p) { fftw_execute(p); }
+  static void executeR2c(Plan p, double* in, Complex* out) { fftw_execute_dft_r2c(p, in, out); }
   static void destroy(Plan p) { fftw_destroy_plan(p); }
 };
 template <>
@@ -79,6 +80,7 @@ struct Fftw<float> {
     return fftwf_plan_guru64_dft(1, &d, hr, h, io, io, sign, FFTW_ESTIMATE);
   }
   static void execute(Plan p) { fftwf_execute(p); }
+  static void executeR2c(Plan p, float* in, Complex* out) { fftwf_execute_dft_r2c(p, in, out); }
   static void destroy(Plan p) { fftwf_destroy_plan(p); }
 };
 
@@ -224,6 +226,110 @@ class PaddedCorrelator {
             check(Fftw<R>::c2rMany(d, 2, many, c + offset * h, buffer_ + offset * s)));
       }
     }
+  }
+};
+
+// Cross-correlation Σ_p a(p) b(p + h) on one box, for the lags 0 <= dz <= hz,
+// |dy| <= hy, |dx| <= hx. The caller keeps a zero outside a sub-box (the tile) whose every
+// p + h lies inside the box, so the cyclic correlation is the linear one: no padding.
+// Two in-place buffers (a's spectrum, then b's), one forward and one backward plan.
+template <class R>
+class BoxCrossCorrelator {
+ public:
+  BoxCrossCorrelator(const Dims& box, const Dims& maxLag, int threads)
+      : box_(box), maxLag_(maxLag), threads_(std::max(1, threads)) {
+    stride_ = 2 * (box_[2] / 2 + 1);
+    count_ = static_cast<std::size_t>(box_[0] * box_[1] * stride_);
+    a_ = static_cast<R*>(Fftw<R>::alloc(count_));
+    b_ = static_cast<R*>(Fftw<R>::alloc(count_));
+    if (!a_ || !b_) {
+      Fftw<R>::release(a_);
+      Fftw<R>::release(b_);
+      throw InputError("S2: cannot allocate the FFT buffers of a tile");
+    }
+    initFftwThreads();
+    std::lock_guard<std::mutex> lock(plannerMutex());
+    Fftw<R>::threads(threads_);
+    using Complex = typename Fftw<R>::Complex;
+    const int n0 = static_cast<int>(box_[0]), n1 = static_cast<int>(box_[1]),
+              n2 = static_cast<int>(box_[2]);
+    forward_ = Fftw<R>::r2c(n0, n1, n2, b_, reinterpret_cast<Complex*>(b_));
+    backward_ = Fftw<R>::c2r(n0, n1, n2, reinterpret_cast<Complex*>(b_), b_);
+    if (!forward_ || !backward_) {
+      if (forward_) Fftw<R>::destroy(forward_);
+      if (backward_) Fftw<R>::destroy(backward_);
+      Fftw<R>::release(a_);
+      Fftw<R>::release(b_);
+      throw InternalError("S2: FFTW could not plan a tile transform");
+    }
+  }
+  ~BoxCrossCorrelator() {
+    std::lock_guard<std::mutex> lock(plannerMutex());
+    Fftw<R>::destroy(forward_);
+    Fftw<R>::destroy(backward_);
+    Fftw<R>::release(a_);
+    Fftw<R>::release(b_);
+  }
+  BoxCrossCorrelator(const BoxCrossCorrelator&) = delete;
+  BoxCrossCorrelator& operator=(const BoxCrossCorrelator&) = delete;
+
+  // a(k, j, i) and b(k, j, i) give the fields at box cell (k, j, i). Returns the lag sums
+  // in the accumulator's half-grid order [hz+1][2hy+1][2hx+1].
+  template <class A, class B>
+  std::vector<double> run(A a, B b) {
+    using Complex = typename Fftw<R>::Complex;
+    fill(a_, a);
+    fill(b_, b);
+    Fftw<R>::executeR2c(forward_, a_, reinterpret_cast<Complex*>(a_));
+    Fftw<R>::executeR2c(forward_, b_, reinterpret_cast<Complex*>(b_));
+    // conj(A)·B is the spectrum of Σ_p a(p) b(p + h).
+    const std::int64_t pairs = static_cast<std::int64_t>(count_ / 2);
+    R* fa = a_;
+    R* fb = b_;
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t c = 0; c < pairs; ++c) {
+      const R ar = fa[2 * c], ai = fa[2 * c + 1], br = fb[2 * c], bi = fb[2 * c + 1];
+      fb[2 * c] = ar * br + ai * bi;
+      fb[2 * c + 1] = ar * bi - ai * br;
+    }
+    Fftw<R>::execute(backward_);
+    const std::int64_t hz = maxLag_[0], hy = maxLag_[1], hx = maxLag_[2];
+    const std::int64_t ly = 2 * hy + 1, lx = 2 * hx + 1;
+    const std::int64_t n1 = box_[1], n2 = box_[2];
+    const double norm =
+        1.0 / (static_cast<double>(box_[0]) * static_cast<double>(n1) * static_cast<double>(n2));
+    std::vector<double> out(static_cast<std::size_t>((hz + 1) * ly * lx));
+    for (std::int64_t dz = 0; dz <= hz; ++dz)
+      for (std::int64_t dy = -hy; dy <= hy; ++dy) {
+        const R* row = fb + (dz * n1 + (dy + n1) % n1) * stride_;
+        double* dst = out.data() + (dz * ly + (dy + hy)) * lx;
+        for (std::int64_t dx = -hx; dx <= hx; ++dx) {
+          const double v = static_cast<double>(row[(dx + n2) % n2]) * norm;
+          dst[dx + hx] = std::is_same_v<R, double> ? std::nearbyint(v) : v;
+        }
+      }
+    return out;
+  }
+
+ private:
+  Dims box_, maxLag_;
+  int threads_;
+  std::int64_t stride_ = 0;
+  std::size_t count_ = 0;
+  R* a_ = nullptr;
+  R* b_ = nullptr;
+  typename Fftw<R>::Plan forward_{}, backward_{};
+
+  template <class F>
+  void fill(R* buf, F f) const {
+    const std::int64_t n0 = box_[0], n1 = box_[1], n2 = box_[2], s = stride_;
+#pragma omp parallel for num_threads(threads_) schedule(static)
+    for (std::int64_t k = 0; k < n0; ++k)
+      for (std::int64_t j = 0; j < n1; ++j) {
+        R* row = buf + (k * n1 + j) * s;
+        for (std::int64_t i = 0; i < n2; ++i) row[i] = static_cast<R>(f(k, j, i));
+        for (std::int64_t i = n2; i < s; ++i) row[i] = R(0);
+      }
   }
 };
 
@@ -502,6 +608,18 @@ Dims s2MaxLag(const Lattice& lattice, const S2Options& options) {
 
 Dims s2PaddedDims(const Dims& dims, const Dims& maxLag) { return paddedDims(dims, maxLag); }
 
+Dims s2TileBox(const Dims& own, const Dims& maxLag) {
+  return {fftFriendlySize(own[0] + maxLag[0]), fftFriendlySize(own[1] + 2 * maxLag[1]),
+          fftFriendlySize(own[2] + 2 * maxLag[2])};
+}
+
+std::uint64_t s2TileBufferBytes(const Dims& own, const Dims& maxLag, FftPrecision precision) {
+  const Dims b = s2TileBox(own, maxLag);
+  const std::uint64_t cells = static_cast<std::uint64_t>(b[0]) * static_cast<std::uint64_t>(b[1]) *
+                              2 * (static_cast<std::uint64_t>(b[2]) / 2 + 1);
+  return 2 * cells * (precision == FftPrecision::Float ? 4 : 8);
+}
+
 S2SlabAccumulator::S2SlabAccumulator(const Lattice& lattice, bool hasMask, bool prismMask,
                                      const S2Options& options)
     : lattice_(lattice),
@@ -536,15 +654,6 @@ void S2SlabAccumulator::setPrismSlice(const Grid<std::uint8_t>& slice) {
   }
 }
 
-// Adds sign x the h_z >= 0 half of a full lag grid to `dst`.
-void S2SlabAccumulator::addHalf(std::vector<double>& dst, const std::vector<double>& full,
-                                double sign) const {
-  const std::int64_t hz = maxLag_[0];
-  const std::size_t plane = static_cast<std::size_t>((2 * maxLag_[1] + 1) * (2 * maxLag_[2] + 1));
-  const std::size_t offset = static_cast<std::size_t>(hz) * plane;  // dz = 0 in the full grid
-  for (std::size_t n = 0; n < dst.size(); ++n) dst[n] += sign * full[offset + n];
-}
-
 void S2SlabAccumulator::addSlab(std::int64_t z0, std::int64_t z1,
                                 const Grid<std::uint8_t>& indicator,
                                 const Grid<std::uint8_t>* mask) {
@@ -555,35 +664,54 @@ void S2SlabAccumulator::addSlab(std::int64_t z0, std::int64_t z1,
       z0 < 0 || z1 <= z0 || z1 > nz)
     throw InternalError("S2 slab: planes do not match the slab and its halo");
   if (hasMask_ != (mask != nullptr)) throw InternalError("S2 slab: mask presence differs");
-  const std::int64_t own = z1 - z0, haloPlanes = l.dims[0] - own;
-  const std::size_t sliceSize = static_cast<std::size_t>(l.dims[1] * l.dims[2]);
+  if (options_.precision == FftPrecision::Float)
+    addTiles<float>(z1 - z0, indicator, mask);
+  else
+    addTiles<double>(z1 - z0, indicator, mask);
+}
+
+template <class R>
+void S2SlabAccumulator::addTiles(std::int64_t own, const Grid<std::uint8_t>& indicator,
+                                 const Grid<std::uint8_t>* mask) {
+  const Dims d = indicator.lattice().dims;  // own planes + halo (clipped at the top)
+  const std::int64_t ny = d[1], nx = d[2], hy = maxLag_[1], hx = maxLag_[2];
+  const std::int64_t edge = options_.tileVoxels;
+  const std::int64_t ty = edge > 0 ? std::min(edge, ny) : ny;
+  const std::int64_t tx = edge > 0 ? std::min(edge, nx) : nx;
+  const Dims box = s2TileBox({own, ty, tx}, maxLag_);
+  for (int a = 0; a < 3; ++a) padded_[a] = std::max(padded_[a], box[a]);
+  BoxCrossCorrelator<R> corr(box, maxLag_, options_.threads);
   const std::uint8_t* ind = indicator.data();
   const std::uint8_t* m = mask ? mask->data() : nullptr;
-  // Clamp the lags to what the slab can hold: the lag grid keeps the whole-volume shape.
-  auto run = [&](const Dims& dims, std::size_t first, auto value) -> std::vector<double> {
-    const Dims h = maxLag_;
-    const Dims p = paddedDims(dims, h);
-    for (int a = 0; a < 3; ++a) padded_[a] = std::max(padded_[a], p[a]);
-    if (options_.precision == FftPrecision::Float) {
-      PaddedCorrelator<float> c(dims, p, h, options_.threads);
-      return c.run([&](std::size_t o) { return value(first + o); }).values;
+  const std::int64_t planes = d[0], halfZ = maxLag_[0];
+  for (std::int64_t y0 = 0; y0 < ny; y0 += ty)
+    for (std::int64_t x0 = 0; x0 < nx; x0 += tx) {
+      // Box cell (k, j, i) is slab voxel (k, y0 − hy + j, x0 − hx + i). `b` is the field on
+      // the tile and its halo (zero outside the volume), `a` the field on the tile alone.
+      const std::int64_t y1 = std::min(ny, y0 + ty), x1 = std::min(nx, x0 + tx);
+      auto offset = [&](std::int64_t k, std::int64_t j, std::int64_t i, bool tileOnly) {
+        const std::int64_t y = y0 - hy + j, x = x0 - hx + i;
+        const bool in = tileOnly
+                            ? (k < own && y >= y0 && y < y1 && x >= x0 && x < x1)
+                            : (k < planes && k < own + halfZ && y >= y0 - hy && y < y1 + hy &&
+                               y >= 0 && y < ny && x >= x0 - hx && x < x1 + hx && x >= 0 && x < nx);
+        return in ? static_cast<std::ptrdiff_t>((k * ny + y) * nx + x) : std::ptrdiff_t{-1};
+      };
+      auto field = [&](bool tileOnly, bool maskOnly) {
+        return [&, tileOnly, maskOnly](std::int64_t k, std::int64_t j, std::int64_t i) -> int {
+          const std::ptrdiff_t o = offset(k, j, i, tileOnly);
+          if (o < 0) return 0;
+          if (maskOnly) return m[o];
+          return m ? (ind[o] & m[o]) : ind[o];
+        };
+      };
+      const std::vector<double> num = corr.run(field(true, false), field(false, false));
+      for (std::size_t n = 0; n < num_.size(); ++n) num_[n] += num[n];
+      if (!den_.empty()) {
+        const std::vector<double> den = corr.run(field(true, true), field(false, true));
+        for (std::size_t n = 0; n < den_.size(); ++n) den_[n] += den[n];
+      }
     }
-    PaddedCorrelator<double> c(dims, p, h, options_.threads);
-    LagGrid g = c.run([&](std::size_t o) { return value(first + o); });
-    roundCounts<double>(g);
-    return std::move(g.values);
-  };
-  const Dims whole{l.dims[0], l.dims[1], l.dims[2]};
-  const Dims halo{haloPlanes, l.dims[1], l.dims[2]};
-  const std::size_t haloFirst = static_cast<std::size_t>(own) * sliceSize;
-  auto numField = [&](std::size_t o) -> std::uint8_t { return m ? (ind[o] & m[o]) : ind[o]; };
-  addHalf(num_, run(whole, 0, numField), 1.0);
-  if (haloPlanes > 0) addHalf(num_, run(halo, haloFirst, numField), -1.0);
-  if (!den_.empty()) {
-    auto maskField = [&](std::size_t o) -> std::uint8_t { return m[o]; };
-    addHalf(den_, run(whole, 0, maskField), 1.0);
-    if (haloPlanes > 0) addHalf(den_, run(halo, haloFirst, maskField), -1.0);
-  }
 }
 
 S2Result S2SlabAccumulator::finish() const {

@@ -1,4 +1,5 @@
-// computeStats: every statistic of a bed as one JSON object (docs/interfaces.md keys), and CSV export.
+// computeStats: every statistic of a bed as one JSON object (docs/interfaces.md keys), and CSV
+// export.
 #include "voxpack/stats/stats.hpp"
 
 #include <algorithm>
@@ -181,6 +182,7 @@ S2Options s2Options(const StatsOptions& options) {
   so.maxLagMm = options.s2MaxLagMm;
   so.precision = options.s2Float ? FftPrecision::Float : FftPrecision::Double;
   so.threads = options.threads;
+  so.tileVoxels = options.s2TileVoxels;
   return so;
 }
 

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
@@ -133,10 +134,48 @@ std::uint64_t estimateStreamedBytes(const BedHeader& h, const VoxelBox& region,
   std::uint64_t bytes = kProcessBaseBytes + particleTableBytes(h) + 16 * plane + 64 * u(d[0]);
   bytes += u(read) * plane * (1 + (h.hasMask ? 1 : 0)) + (h.hasMask ? plane : 0);
   if (s2) {
-    bytes += fftBufferBytes(s2PaddedDims({read, d[1], d[2]}, lag), options.s2Float);
+    const std::int64_t edge = options.s2TileVoxels;
+    const Dims own{t, edge > 0 ? std::min(edge, d[1]) : d[1],
+                   edge > 0 ? std::min(edge, d[2]) : d[2]};
+    bytes +=
+        s2TileBufferBytes(own, lag, options.s2Float ? FftPrecision::Float : FftPrecision::Double);
     bytes += 4 * lagGridBytes(lag);
   }
   return bytes;
+}
+
+std::int64_t chooseS2TileVoxels(const BedHeader& h, const VoxelBox& region,
+                                const StatsOptions& options, const MemoryBudget& budget,
+                                std::int64_t slabPlanes) {
+  const Dims d = region.dims;
+  const Dims lag = s2MaxLag(subLattice(h.lattice, region), s2Options(options));
+  // Whole planes first, then square tiles down to a few lags across; the one that fits with
+  // the least FFT work per owned voxel (box volume / owned volume) wins.
+  std::int64_t best = 0;
+  double bestCost = std::numeric_limits<double>::infinity();
+  const std::int64_t wide = std::max(d[1], d[2]);
+  for (const std::int64_t edge :
+       {std::int64_t{0}, std::int64_t{1024}, std::int64_t{768}, std::int64_t{512},
+        std::int64_t{384}, std::int64_t{256}, std::int64_t{192}, std::int64_t{128},
+        std::int64_t{96}, std::int64_t{64}, std::int64_t{48}, std::int64_t{32}}) {
+    if (edge > 0 && edge >= wide) continue;
+    StatsOptions o = options;
+    o.s2TileVoxels = edge;
+    const std::int64_t t =
+        slabPlanes > 0 ? std::min(slabPlanes, d[0]) : slabPlanesWithin(h, region, o, budget);
+    if (t <= 0 || !budget.fits(estimateStreamedBytes(h, region, o, t))) continue;
+    const Dims own{t, edge > 0 ? std::min(edge, d[1]) : d[1],
+                   edge > 0 ? std::min(edge, d[2]) : d[2]};
+    const Dims box = s2TileBox(own, lag);
+    const double cost =
+        static_cast<double>(box[0]) * static_cast<double>(box[1]) * static_cast<double>(box[2]) /
+        (static_cast<double>(own[0]) * static_cast<double>(own[1]) * static_cast<double>(own[2]));
+    if (cost < bestCost * 0.999) {
+      bestCost = cost;
+      best = edge;
+    }
+  }
+  return best;
 }
 
 std::int64_t slabPlanesWithin(const BedHeader& h, const VoxelBox& region,
@@ -203,10 +242,11 @@ json packedRegionJson(const PackedSlices& r, const Lattice& l, const std::string
           {"rule", "slices partly solid and >= 0.5 x the densest slice (as compare)"}};
 }
 
-json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions& options,
+json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions& given,
                           const StreamOptions& stream, Progress& progress,
                           const Communicator& comm) {
-  validateStatsOptions(options);
+  validateStatsOptions(given);
+  StatsOptions options = given;  // the S2 tile edge may be chosen below
   const auto which = requested(options);
   std::string cannot;
   for (const auto& s : which)
@@ -246,6 +286,8 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     particles = std::move(kept);
   }
 
+  if (want("s2") && options.s2TileVoxels <= 0)
+    options.s2TileVoxels = chooseS2TileVoxels(h, region, options, stream.budget, stream.slabPlanes);
   std::int64_t t = stream.slabPlanes > 0 ? stream.slabPlanes
                                          : slabPlanesWithin(h, region, options, stream.budget);
   if (t <= 0)
@@ -370,6 +412,7 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   out["streamed"] = {{"slab_planes", t},
                      {"slabs", Slabs(region.dims[0], t, comm).count},
                      {"halo_planes", halo},
+                     {"s2_tile_voxels", want("s2") ? json(options.s2TileVoxels) : json(nullptr)},
                      {"ranks", comm.size()},
                      {"estimate_bytes", estimateStreamedBytes(h, region, options, t)}};
   sanitizeNonFinite(out);

@@ -56,7 +56,9 @@ json streamed(const std::filesystem::path& f, const stats::StatsOptions& o, std:
 }
 
 // Every streamed statistic of `bed` with slabs of `planes` against the in-memory path.
-void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2LagMm = 0) {
+// `tile` > 0 also cuts each slab into y-x tiles of that edge (S2 only).
+void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2LagMm = 0,
+                                  std::int64_t tile = 0) {
   TempDir tmp;
   const auto f = tmp / "bed.h5";
   writeBed(f, bed);
@@ -64,8 +66,14 @@ void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2
   o.only = {"axial", "radial", "s2", "orientation"};
   o.s2MaxLagMm = s2LagMm;
   const json a = inMemory(readBed(f), o);
+  o.s2TileVoxels = tile;
   const json b = streamed(f, o, planes);
   ASSERT_GT(b["streamed"]["slabs"].get<int>(), 2);
+  if (tile > 0) {
+    EXPECT_EQ(b["streamed"]["s2_tile_voxels"], tile);
+    const auto lagY = b["s2"]["max_lag_voxels"][1].get<std::int64_t>();
+    EXPECT_GT(lagY, tile) << "lags must cross tiles";
+  }
   const auto lag = b["s2"]["max_lag_voxels"][0].get<std::int64_t>();
   EXPECT_GT(lag, planes) << "lags must cross slabs";
   for (const char* k : {"voxels_in_mask", "void_voxels", "porosity", "packing_density",
@@ -119,6 +127,81 @@ TEST(StreamedStats, MaskedAnisotropicUnevenLastSlab) {
   expectStreamedEqualsInMemory(sphereColumn(o), 5, 2.4);  // 8 planes of lag
 }
 
+// Tiles narrower than the lags, an uneven last tile in y and x, lags crossing several
+// tiles and slabs: the same counts as the whole volume (issue 13: FFT buffers by tile).
+TEST(StreamedStats, PrismMaskTilesOfFiveVoxels) {
+  ColumnBed o;
+  expectStreamedEqualsInMemory(sphereColumn(o), 3, 0, 5);
+}
+
+TEST(StreamedStats, TaperedMaskTilesOfFourVoxels) {
+  ColumnBed o;
+  o.taperedMask = true;
+  expectStreamedEqualsInMemory(sphereColumn(o), 4, 0, 4);
+}
+
+TEST(StreamedStats, NoMaskAnisotropicTilesOfThreeVoxels) {
+  ColumnBed o;
+  o.mask = false;
+  o.spacingMm = {0.15, 0.2, 0.25};
+  expectStreamedEqualsInMemory(sphereColumn(o), 2, 0, 3);
+}
+
+// Single precision through tiles stays within float rounding of the double result.
+TEST(StreamedStats, FloatTilesAgreeWithDoubleToFloatRounding) {
+  ColumnBed o;
+  o.taperedMask = true;
+  TempDir tmp;
+  const auto f = tmp / "bed.h5";
+  writeBed(f, sphereColumn(o));
+  stats::StatsOptions d;
+  d.only = {"s2"};
+  const json a = streamed(f, d, 4);
+  d.s2Float = true;
+  d.s2TileVoxels = 6;
+  const json b = streamed(f, d, 4);
+  EXPECT_EQ(b["s2"]["precision"], "float");
+  expectClose(a["s2"]["s2"], b["s2"]["s2"], "s2 float", 1e-5);
+}
+
+// Past a budget that cannot hold whole-plane FFT boxes, tiles are chosen, and the run
+// fits the budget; with room, whole planes are kept.
+TEST(StreamedStats, TileEdgeChosenFromTheBudget) {
+  ColumnBed o;
+  o.nz = 24;
+  o.ny = o.nx = 96;
+  o.radiusVox = 6;
+  TempDir tmp;
+  const auto f = tmp / "bed.h5";
+  writeBed(f, sphereColumn(o));
+  const BedHeader h = readBedHeader(f);
+  const VoxelBox region{{0, 0, 0}, h.lattice.dims};
+  stats::StatsOptions so;
+  so.only = {"s2"};
+  so.s2MaxLagMm = 16 * 0.2;
+  EXPECT_EQ(stats::chooseS2TileVoxels(h, region, so, MemoryBudget{std::uint64_t{8} << 30}), 0);
+  // One whole-plane slab of one plane needs (1+16) x 128 x 130 x 2 doubles: ~4.5 MB.
+  stats::StatsOptions whole = so;
+  const std::uint64_t onePlane = stats::estimateStreamedBytes(h, region, whole, 1);
+  const MemoryBudget tight{onePlane - 1};
+  const std::int64_t edge = stats::chooseS2TileVoxels(h, region, so, tight);
+  ASSERT_GT(edge, 0);
+  so.s2TileVoxels = edge;
+  const std::int64_t t = stats::slabPlanesWithin(h, region, so, tight);
+  ASSERT_GT(t, 0);
+  EXPECT_LE(stats::estimateStreamedBytes(h, region, so, t), tight.limitBytes);
+  stats::StreamOptions stream;
+  stream.budget = tight;
+  stats::StatsOptions run;
+  run.only = {"s2"};
+  run.s2MaxLagMm = so.s2MaxLagMm;
+  const json b = stats::computeStatsStreamed(f, run, stream, nullProgress());
+  EXPECT_EQ(b["streamed"]["s2_tile_voxels"], edge);
+  const json a = inMemory(readBed(f), run);
+  EXPECT_EQ(a["s2"]["pairs"], b["s2"]["pairs"]);
+  expectClose(a["s2"]["s2"], b["s2"]["s2"], "s2");
+}
+
 // The pair counts of the slabs sum to the brute-force whole-volume counts.
 TEST(StreamedStats, PairCountsEqualBruteForce) {
   ColumnBed o;
@@ -132,26 +215,30 @@ TEST(StreamedStats, PairCountsEqualBruteForce) {
   so.maxLagMm = 0.8;  // 4 voxels
   so.minPairFraction = 0;
   const stats::S2Result direct = stats::twoPointProbabilityDirect(bed.indicator, &*bed.mask, so);
-  stats::S2SlabAccumulator acc(bed.lattice(), true, false, so);
-  const std::int64_t nz = o.nz, hz = acc.maxLag()[0];
-  for (std::int64_t z0 = 0; z0 < nz; z0 += 2) {
-    const std::int64_t z1 = std::min(nz, z0 + 2), ze = std::min(nz, z1 + hz);
-    const VoxelBox box{{z0, 0, 0}, {ze - z0, o.ny, o.nx}};
-    Grid<std::uint8_t> ind(subLattice(bed.lattice(), box)), m(ind.lattice());
-    for (std::int64_t k = 0; k < ze - z0; ++k)
-      for (std::int64_t j = 0; j < o.ny; ++j)
-        for (std::int64_t i = 0; i < o.nx; ++i) {
-          ind(k, j, i) = bed.indicator(z0 + k, j, i);
-          m(k, j, i) = (*bed.mask)(z0 + k, j, i);
-        }
-    acc.addSlab(z0, z1, ind, &m);
+  for (const std::int64_t tile : {0, 3}) {  // whole planes, then tiles of 3 x 3
+    SCOPED_TRACE(tile);
+    so.tileVoxels = tile;
+    stats::S2SlabAccumulator acc(bed.lattice(), true, false, so);
+    const std::int64_t nz = o.nz, hz = acc.maxLag()[0];
+    for (std::int64_t z0 = 0; z0 < nz; z0 += 2) {
+      const std::int64_t z1 = std::min(nz, z0 + 2), ze = std::min(nz, z1 + hz);
+      const VoxelBox box{{z0, 0, 0}, {ze - z0, o.ny, o.nx}};
+      Grid<std::uint8_t> ind(subLattice(bed.lattice(), box)), m(ind.lattice());
+      for (std::int64_t k = 0; k < ze - z0; ++k)
+        for (std::int64_t j = 0; j < o.ny; ++j)
+          for (std::int64_t i = 0; i < o.nx; ++i) {
+            ind(k, j, i) = bed.indicator(z0 + k, j, i);
+            m(k, j, i) = (*bed.mask)(z0 + k, j, i);
+          }
+      acc.addSlab(z0, z1, ind, &m);
+    }
+    const stats::S2Result r = acc.finish();
+    EXPECT_EQ(r.radial.pairs, direct.radial.pairs);
+    EXPECT_EQ(r.axial.pairs, direct.axial.pairs);
+    ASSERT_EQ(r.radial.s2.size(), direct.radial.s2.size());
+    for (std::size_t b = 0; b < r.radial.s2.size(); ++b)
+      EXPECT_NEAR(r.radial.s2[b], direct.radial.s2[b], 1e-12 * direct.radial.s2[b]) << b;
   }
-  const stats::S2Result r = acc.finish();
-  EXPECT_EQ(r.radial.pairs, direct.radial.pairs);
-  EXPECT_EQ(r.axial.pairs, direct.axial.pairs);
-  ASSERT_EQ(r.radial.s2.size(), direct.radial.s2.size());
-  for (std::size_t b = 0; b < r.radial.s2.size(); ++b)
-    EXPECT_NEAR(r.radial.s2[b], direct.radial.s2[b], 1e-12 * direct.radial.s2[b]) << b;
 }
 
 // ROI and packed region in the stream equal the in-memory crop.

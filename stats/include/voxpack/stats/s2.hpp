@@ -33,6 +33,9 @@ struct S2Options {
   /// When every mask slice is the same (a column), compute the pair count exactly as the
   /// 2D pair count of one slice times (n_z − |h_z|) instead of a 3D FFT pair.
   bool prismMask = true;
+  /// Streamed S2 only (S2SlabAccumulator): edge (voxels, y and x) of the tiles a slab is
+  /// cut into, so the FFT buffers scale with the tile, not the plane; 0 = the whole plane.
+  std::int64_t tileVoxels = 0;
 };
 
 /// One S2 curve: per bin the mean lag (mm), S2, and the pair count summed over the bin.
@@ -92,13 +95,25 @@ std::array<std::int64_t, 3> s2MaxLag(const Lattice& lattice, const S2Options& op
 std::array<std::int64_t, 3> s2PaddedDims(const std::array<std::int64_t, 3>& dims,
                                          const std::array<std::int64_t, 3>& maxLag);
 
+/// FFT box of one streamed S2 tile that owns `own` (planes, rows, columns) voxels: the
+/// tile plus hz planes above and hy, hx on each side, rounded up to FFT-friendly sizes.
+std::array<std::int64_t, 3> s2TileBox(const std::array<std::int64_t, 3>& own,
+                                      const std::array<std::int64_t, 3>& maxLag);
+
+/// Bytes of the two FFT buffers one streamed S2 tile of `own` voxels holds.
+std::uint64_t s2TileBufferBytes(const std::array<std::int64_t, 3>& own,
+                                const std::array<std::int64_t, 3>& maxLag, FftPrecision precision);
+
 /// S2 of a bed streamed in z-slabs (docs/scale.md). Each slab owns planes [z0, z1) and is
-/// given with hz more planes above (clipped at the top); for lags with h_z >= 0 it adds
-/// the pairs whose first point lies in its own planes: the autocorrelation of the whole
-/// slab minus that of its halo alone (the pairs with both points in the halo belong to the
-/// next slab). The other half of the lags follows from C(−h) = C(h). In double precision
+/// given with hz more planes above (clipped at the top). The slab is cut into tiles of
+/// S2Options::tileVoxels in y and x; for lags with h_z >= 0 each tile adds the pairs whose
+/// first point lies in it, Σ_{p in tile} f(p) f(p+h), as one FFT cross-correlation of the
+/// tile with the box around it (the tile, hz planes above, hy and hx each side): every
+/// p + h lies inside that box, so the cyclic correlation needs no padding and has no
+/// wrap-around. The other half of the lags follows from C(−h) = C(h). In double precision
 /// every lag sum is rounded to its integer (the counts are integers, the FFT error is
-/// < 1e-6), so the sum over slabs equals the whole-volume count exactly, in any order.
+/// < 1e-6), so the sum over tiles and slabs equals the whole-volume count exactly, in any
+/// order.
 class S2SlabAccumulator {
  public:
   /// Accumulator for `lattice` (the whole region streamed); `hasMask`: a mask is given with
@@ -117,7 +132,7 @@ class S2SlabAccumulator {
   std::vector<double>& numerator() { return num_; }
   /// Pair-count sums (used only for a non-prism mask).
   std::vector<double>& pairCounts() { return den_; }
-  /// Largest FFT sizes used by a slab.
+  /// Largest FFT sizes used by a tile.
   const std::array<std::int64_t, 3>& fftDims() const { return padded_; }
   /// The S2 result from the accumulated sums (identical to twoPointProbability's in double
   /// precision).
@@ -130,7 +145,9 @@ class S2SlabAccumulator {
   std::array<std::int64_t, 3> maxLag_{0, 0, 0};
   std::array<std::int64_t, 3> padded_{0, 0, 0};
   std::vector<double> num_, den_, prismPlane_;
-  void addHalf(std::vector<double>& dst, const std::vector<double>& full, double sign) const;
+  template <class R>
+  void addTiles(std::int64_t own, const Grid<std::uint8_t>& indicator,
+                const Grid<std::uint8_t>* mask);
 };
 
 /// Smallest FFT-friendly size (factors 2, 3, 5, 7 only) >= n.

@@ -30,6 +30,9 @@ struct StatsOptions {
   double s2MaxLagMm = 0;
   /// S2 in single precision (faster, pair counts off by ~1; docs/stats.md).
   bool s2Float = false;
+  /// Streamed S2: edge (voxels) of the y-x tiles of each slab; 0 = chosen from the memory
+  /// budget (whole planes when they fit). The in-memory path ignores it.
+  std::int64_t s2TileVoxels = 0;
   /// Radial annulus width (mm); <= 0 = one voxel.
   double radialBinMm = 0;
   /// Mean empty space method: "lattice" (13 directions, default), "isotropic" (CGAL ray

@@ -43,6 +43,12 @@ std::uint64_t estimateStreamedBytes(const BedHeader& header, const VoxelBox& reg
 std::int64_t slabPlanesWithin(const BedHeader& header, const VoxelBox& region,
                               const StatsOptions& options, const MemoryBudget& budget);
 
+/// The S2 tile edge (voxels; 0 = whole planes) whose slabs fit `budget` with the least FFT
+/// work per voxel, for slabs of `slabPlanes` (0 = the thickest that fits).
+std::int64_t chooseS2TileVoxels(const BedHeader& header, const VoxelBox& region,
+                                const StatsOptions& options, const MemoryBudget& budget,
+                                std::int64_t slabPlanes = 0);
+
 /// The slices holding the packing, detected as `compare` does: from the first to the last
 /// partly solid slice (solid fraction in (0, 0.999)) denser than `fraction` x the densest.
 struct PackedSlices {
