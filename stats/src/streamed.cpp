@@ -149,27 +149,29 @@ std::int64_t chooseS2TileVoxels(const BedHeader& h, const VoxelBox& region,
                                 std::int64_t slabPlanes) {
   const Dims d = region.dims;
   const Dims lag = s2MaxLag(subLattice(h.lattice, region), s2Options(options));
-  // Whole planes first, then square tiles down to a few lags across; the one that fits with
-  // the least FFT work per owned voxel (box volume / owned volume) wins.
+  auto split = [](std::int64_t n, std::int64_t e) { return (n + e - 1) / e; };
+  // The plane cut into k x k equal tiles, k = 1 (whole planes) up to tiles a few lags
+  // across; the cut that fits with the least FFT work over the volume wins: slabs x tiles
+  // per slab x box cells x log2(box cells).
   std::int64_t best = 0;
   double bestCost = std::numeric_limits<double>::infinity();
   const std::int64_t wide = std::max(d[1], d[2]);
-  for (const std::int64_t edge :
-       {std::int64_t{0}, std::int64_t{1024}, std::int64_t{768}, std::int64_t{512},
-        std::int64_t{384}, std::int64_t{256}, std::int64_t{192}, std::int64_t{128},
-        std::int64_t{96}, std::int64_t{64}, std::int64_t{48}, std::int64_t{32}}) {
-    if (edge > 0 && edge >= wide) continue;
+  const std::int64_t smallest = std::max<std::int64_t>(8, std::max(lag[1], lag[2]) / 2);
+  for (std::int64_t k = 1; k <= 64; ++k) {
+    const std::int64_t edge = k == 1 ? 0 : split(wide, k);
+    if (k > 1 && edge < smallest) break;
     StatsOptions o = options;
     o.s2TileVoxels = edge;
     const std::int64_t t =
         slabPlanes > 0 ? std::min(slabPlanes, d[0]) : slabPlanesWithin(h, region, o, budget);
     if (t <= 0 || !budget.fits(estimateStreamedBytes(h, region, o, t))) continue;
-    const Dims own{t, edge > 0 ? std::min(edge, d[1]) : d[1],
-                   edge > 0 ? std::min(edge, d[2]) : d[2]};
-    const Dims box = s2TileBox(own, lag);
-    const double cost =
-        static_cast<double>(box[0]) * static_cast<double>(box[1]) * static_cast<double>(box[2]) /
-        (static_cast<double>(own[0]) * static_cast<double>(own[1]) * static_cast<double>(own[2]));
+    const std::int64_t ty = edge > 0 ? std::min(edge, d[1]) : d[1];
+    const std::int64_t tx = edge > 0 ? std::min(edge, d[2]) : d[2];
+    const Dims box = s2TileBox({t, ty, tx}, lag);
+    const double cells =
+        static_cast<double>(box[0]) * static_cast<double>(box[1]) * static_cast<double>(box[2]);
+    const double cost = static_cast<double>(split(d[0], t) * split(d[1], ty) * split(d[2], tx)) *
+                        cells * std::log2(cells);
     if (cost < bestCost * 0.999) {
       bestCost = cost;
       best = edge;
