@@ -2,6 +2,7 @@
 // file, validated), then the chosen mode's run(). The scene-file format is docs/scene.md.
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -12,6 +13,7 @@
 #include "pack_modes.hpp"
 #include "voxel_choice.hpp"
 #include "voxpack/core/atomic_file.hpp"
+#include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/memory.hpp"
 #include "voxpack/core/spec.hpp"
@@ -91,6 +93,19 @@ nlohmann::json sceneJson(const PackScene& s) {
           {"seed", s.seed},
           {"supersample", s.supersample},
           {"provenance", s.provenance}};
+}
+
+// FNV-1a (64 bit) of a text, as 16 hex digits: a short, stable identity of the --from
+// bed's provenance for the new bed's own.
+std::string fnv1a64(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ULL;
+  for (const unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  std::ostringstream s;
+  s << std::hex << std::setw(16) << std::setfill('0') << h;
+  return s.str();
 }
 
 // Largest checkpoint read: far above any state (~100 B per particle).
@@ -288,6 +303,26 @@ class PackCommand final : public Command {
       throw UsageError("--mode " + mode + ": unknown mode (use mc or dem)");
     scene_mode_ = mode;
 
+    // --from BED.h5: the bed to continue. Read whole (the MC walk compares its voxels);
+    // its scene fills in what the flags and the file leave out (docs/dem.md, "--from").
+    std::shared_ptr<Bed> from;
+    nlohmann::json fromScene = nlohmann::json::object();
+    if (!from_.empty()) {
+      if (!resume_.empty()) throw UsageError("give --resume CHECKPOINT or --from BED.h5, not both");
+      std::error_code ec;
+      if (!fs::is_regular_file(from_, ec))
+        throw IoError("--from " + from_.string() + ": no such file");
+      from = std::make_shared<Bed>(readBed(from_, *memory_));
+      const ParticleTable& t = from->particles;
+      if (t.empty() || t.orientation.size() != t.size() || t.shape.size() != t.size())
+        throw InputError("--from " + from_.string() +
+                         ": the bed has no particle table (positions, orientations and shapes); "
+                         "only a packed bed can be continued");
+      const auto& prov = from->provenance;
+      if (prov.is_object() && prov.contains("scene") && prov["scene"].is_object())
+        fromScene = prov["scene"];
+    }
+
     // Shapes.
     if (given("--shape")) {
       for (const auto& t : shapes_) s.shapes.push_back(parseShapeFraction(t));
@@ -319,13 +354,20 @@ class PackCommand final : public Command {
         throw InputError(where(cf, *n) + ": shape must be a string or an array");
       }
     }
+    if (s.shapes.empty() && from) s.shapes = fromShapes(*from, fromScene);
     if (s.shapes.empty()) throw UsageError("--shape is required");
 
     // Container, voxel size, count / fill height, seed, output, supersample.
     s.containerSpec = container_;
     if (!given("--container") && doc.contains("container"))
       s.containerSpec = tomlString(cf, "container", *doc.get("container"));
-    if (s.containerSpec.empty()) throw UsageError("--container is required");
+    if (s.containerSpec.empty() && from && fromScene.contains("container") &&
+        fromScene["container"].is_string())
+      s.containerSpec = fromScene["container"].get<std::string>();
+    if (s.containerSpec.empty())
+      throw UsageError(from ? "--container is required (the bed --from " + from_.string() +
+                                  " records none)"
+                            : std::string("--container is required"));
 
     std::optional<double> voxel;
     std::optional<double> target;
@@ -341,6 +383,8 @@ class PackCommand final : public Command {
       voxel = chooseVoxel(s, *target);
     else if (const toml::node* n = doc.get("voxel_size_mm"))
       voxel = tomlDouble(cf, "voxel_size_mm", *n);
+    else if (from)
+      voxel = from->lattice().spacingMm[2];
     if (!voxel) throw UsageError("--voxel-size (or --target-volume-error) is required");
     if (!std::isfinite(*voxel) || *voxel <= 0) throw InputError("--voxel-size must be > 0");
     s.voxelSizeMm = *voxel;
@@ -357,7 +401,9 @@ class PackCommand final : public Command {
         fill = tomlDouble(cf, "fill_height_mm", *n);
     }
     if (count && fill) throw UsageError("give either --count or --fill-height, not both");
-    if (!count && !fill) throw UsageError("one of --count N or --fill-height MM is required");
+    // With --from, --count N adds N particles and may be left out (only tap the bed).
+    if (!count && !fill && !from)
+      throw UsageError("one of --count N or --fill-height MM is required");
     if (count && *count < 1)
       throw InputError("--count must be >= 1 (got " + std::to_string(*count) + ")");
     if (fill && !(std::isfinite(*fill) && *fill > 0)) throw InputError("--fill-height must be > 0");
@@ -385,6 +431,9 @@ class PackCommand final : public Command {
       s.supersample = supersample_;
     else if (const toml::node* n = doc.get("supersample"))
       s.supersample = static_cast<int>(tomlIntIn(cf, "supersample", *n, 1, 8));
+    else if (from && fromScene.contains("supersample") &&
+             fromScene["supersample"].is_number_integer())
+      s.supersample = fromScene["supersample"].get<int>();
     if (s.supersample < 1 || s.supersample > 8) throw InputError("--supersample must be in 1..8");
 
     s.checkOnly = check_;
@@ -399,17 +448,11 @@ class PackCommand final : public Command {
     } else if (!checkpoint_.empty()) {
       s.checkpointEverySeconds = 60;
     }
-    if (!resume_.empty() && !from_.empty())
-      throw UsageError("give --resume CHECKPOINT or --from BED.h5, not both");
-    for (const auto& [flag, file] : {std::pair{"--resume", resume_}, std::pair{"--from", from_}}) {
-      std::error_code ec;
-      if (!file.empty() && !fs::is_regular_file(file, ec))
-        throw IoError(std::string(flag) + " " + file.string() + ": no such file");
-    }
     if (!checkpoint_.empty())
       ensureWritableDirectory(
           checkpoint_.has_parent_path() ? checkpoint_.parent_path() : fs::path("."), false);
     validateGeometry(s);
+    if (from) checkFromBed(s, *from, fromScene, mode);
     ensureWritableDirectory(s.output.has_parent_path() ? s.output.parent_path() : fs::path("."),
                             false);
 
@@ -434,7 +477,120 @@ class PackCommand final : public Command {
                       {"config", s.config.empty() ? nlohmann::json(nullptr)
                                                   : nlohmann::json(s.config.string())},
                       {"output", s.output.string()}}}};
+    if (from) {
+      // Which bed this one continues: the file and the identity of its provenance.
+      const auto& p = from->provenance;
+      auto field = [&p](const char* key) {
+        return p.is_object() && p.contains(key) ? p[key] : nlohmann::json(nullptr);
+      };
+      s.provenance["from"] = {{"file", from_.string()},
+                              {"particles", from->particles.size()},
+                              {"mode", field("mode")},
+                              {"seed", field("seed")},
+                              {"status", field("status")},
+                              {"command_line", field("command_line")},
+                              {"voxpack_version", field("voxpack_version")},
+                              {"provenance_fnv1a64", fnv1a64(p.dump())}};
+      s.fromBed = std::move(from);
+    }
     return s;
+  }
+
+  // The shapes of a --from bed whose scene gives none: its recorded mixture, else the
+  // distinct specs of its particle table with their number fractions.
+  static std::vector<ShapeFraction> fromShapes(const Bed& bed, const nlohmann::json& scene) {
+    std::vector<ShapeFraction> out;
+    if (scene.contains("shapes") && scene["shapes"].is_array()) {
+      for (const auto& e : scene["shapes"])
+        if (e.is_object() && e.contains("spec") && e["spec"].is_string())
+          out.push_back({e["spec"].get<std::string>(), e.value("fraction", 1.0)});
+      if (!out.empty()) return out;
+    }
+    std::map<std::string, std::size_t> seen;
+    for (const auto& spec : bed.particles.shape) {
+      if (!seen.count(spec)) out.push_back({spec, 0.0});
+      ++seen[spec];
+    }
+    for (auto& sf : out) sf.fraction = static_cast<double>(seen[sf.spec]);
+    return out;
+  }
+
+  // A --from bed must fit the scene: the same voxel size, lattice (the DEM's may be taller:
+  // it grows upwards to hold a high bed), container and mask, supersampling, and shapes the
+  // scene holds. Each mismatch is refused naming both sides. Canonicalises the table's specs.
+  void checkFromBed(const PackScene& s, Bed& bed, const nlohmann::json& scene,
+                    const std::string& mode) const {
+    const std::string f = "--from " + from_.string() + ": ";
+    const Lattice& l = bed.lattice();
+    const double h = s.voxelSizeMm;
+    for (int a = 0; a < 3; ++a)
+      if (std::fabs(l.spacingMm[a] - h) > 1e-9 * h) {
+        std::ostringstream m;
+        m << f << "the bed's voxel size is " << l.spacingMm[0] << " x " << l.spacingMm[1] << " x "
+          << l.spacingMm[2] << " mm, the scene's --voxel-size " << h << " mm";
+        throw InputError(m.str());
+      }
+    const auto container = packer::parseContainer(s.containerSpec);
+    if (scene.contains("container") && scene["container"].is_string()) {
+      const std::string was = packer::parseContainer(scene["container"].get<std::string>())->spec();
+      if (was != s.containerSpec)
+        throw InputError(f + "the bed was packed in container " + was + ", the scene gives " +
+                         s.containerSpec);
+    }
+    if (scene.contains("supersample") && scene["supersample"].is_number_integer() &&
+        scene["supersample"].get<int>() != s.supersample)
+      throw InputError(f + "the bed was digitised with --supersample " +
+                       std::to_string(scene["supersample"].get<int>()) + ", the scene gives " +
+                       std::to_string(s.supersample));
+    const Lattice want = packer::latticeForContainer(*container, h, 1);
+    bool fits = l.ny() == want.ny() && l.nx() == want.nx() &&
+                (mode == "dem" ? l.nz() >= want.nz() : l.nz() == want.nz());
+    for (int a = 0; a < 3; ++a)
+      fits = fits && std::fabs(l.originMm[a] - want.originMm[a]) <= 1e-6 * h;
+    if (!fits) {
+      std::ostringstream m;
+      m << f << "the bed's lattice (" << l.nz() << " x " << l.ny() << " x " << l.nx()
+        << " voxels, origin z y x " << l.originMm[0] << " " << l.originMm[1] << " " << l.originMm[2]
+        << " mm) is not the lattice of container " << s.containerSpec << " at " << h << " mm ("
+        << want.nz() << (mode == "dem" ? " or more" : "") << " x " << want.ny() << " x "
+        << want.nx() << ", origin " << want.originMm[0] << " " << want.originMm[1] << " "
+        << want.originMm[2] << " mm)";
+      throw InputError(m.str());
+    }
+    if (bed.mask) {
+      // The outermost layer is left out: the MC walk marks it wall in its mask.
+      const Grid<std::uint8_t> mask = packer::containerMask(*container, l, s.supersample);
+      std::size_t differ = 0;
+      for (std::int64_t k = 1; k + 1 < l.nz(); ++k)
+        for (std::int64_t j = 1; j + 1 < l.ny(); ++j)
+          for (std::int64_t i = 1; i + 1 < l.nx(); ++i)
+            differ += (*bed.mask)(k, j, i) != mask(k, j, i) ? 1 : 0;
+      if (differ > 0)
+        throw InputError(f + "the bed's mask is not container " + s.containerSpec + "'s (" +
+                         std::to_string(differ) + " voxels differ)");
+    }
+    std::map<std::string, std::string> canonical;
+    std::string names;
+    for (const auto& sf : s.shapes) names += (names.empty() ? "" : ", ") + sf.spec;
+    for (std::size_t n = 0; n < bed.particles.size(); ++n) {
+      std::string& spec = bed.particles.shape[n];
+      auto it = canonical.find(spec);
+      if (it == canonical.end()) {
+        std::string c;
+        try {
+          c = packer::parseShape(spec)->spec();
+        } catch (const Error&) {
+          c = spec;  // unreadable: refused below as not one of the scene's
+        }
+        bool ok = false;
+        for (const auto& sf : s.shapes) ok = ok || sf.spec == c;
+        if (!ok)
+          throw InputError(f + "particle " + std::to_string(n + 1) + " has shape " + spec +
+                           ", which is not one of the scene's shapes (" + names + ")");
+        it = canonical.emplace(spec, c).first;
+      }
+      spec = it->second;
+    }
   }
 
   // Refuses scenes no mode can pack: particles smaller than a voxel, or a container that

@@ -201,8 +201,9 @@ class DemMode final : public PackMode {
       };
     }
     if (!scene.resumeState.is_null()) ckpt.resume = &scene.resumeState;
-    if (!scene.from.empty())
-      throw UsageError("--from is not available yet (docs/dem.md); use --resume CHECKPOINT");
+    // --from: the bed's particles start at rest at their stored poses; --count N more are
+    // poured on top (docs/dem.md, "Continuing a bed").
+    if (scene.fromBed) ds.initial = scene.fromBed->particles;
     const packer::dem::DemResult r = packer::dem::runDem(ds, o, progress, ckpt);
     // A cancelled run (signal, or a Python KeyboardInterrupt through the hook) writes no
     // partial bed: the caller gets Cancelled, as from the Monte Carlo walk.

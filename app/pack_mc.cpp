@@ -110,9 +110,8 @@ class McMode final : public PackMode {
     }
     for (std::size_t n = 0; n < keys.size(); ++n)
       if (pack.get_option(keys[n].flag)->count() > 0) set(o, keys[n], values_[n], keys[n].flag);
-    packer::validate(o);
-    if (!scene.from.empty())
-      throw UsageError("--from is not available for --mode mc (use --resume CHECKPOINT)");
+    // A run from a bed (--from, or resumed from one's checkpoint) may add nothing.
+    packer::validate(o, scene.fromBed != nullptr || scene.provenance.contains("from"));
     if (scene.checkOnly) {
       nlohmann::json j = scene.provenance;
       j["mc"] = packer::toJson(o);
@@ -144,7 +143,16 @@ class McMode final : public PackMode {
       };
     }
     if (!scene.resumeState.is_null()) ckpt.resume = &scene.resumeState;
-    packer::McResult r = packer::packMonteCarlo(mixture, *container, o, scene.seed, progress, ckpt);
+    packer::McResult r;
+    try {
+      r = packer::packMonteCarlo(mixture, *container, o, scene.seed, progress, ckpt,
+                                 scene.fromBed.get());
+    } catch (const InputError& e) {
+      // The walk's refusal of the start bed names the file it came from.
+      const std::string m = e.what(), tag = "the start bed: ";
+      if (m.rfind(tag, 0) != 0) throw;
+      throw InputError("--from " + scene.from.string() + ": " + m.substr(tag.size()));
+    }
 
     nlohmann::json prov = scene.provenance;
     prov["mc"] = r.bed.provenance["mc"];

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "voxpack/core/bed.hpp"
 
 namespace voxpack::app {
 
@@ -40,8 +41,11 @@ struct PackScene {
   double checkpointEverySeconds = 0;  ///< --checkpoint-every SECONDS of wall time (0 = never)
   std::filesystem::path resume;       ///< --resume FILE: continue from a checkpoint
   std::filesystem::path from;         ///< --from BED.h5: continue from an existing bed
-  bool checkOnly = false;             ///< --check: validate everything, print, pack nothing
-  nlohmann::json resumeState;         ///< the mode's state read from --resume (null = none)
+  /// The bed of --from, read and checked against the scene (null = none); its particle
+  /// table's shape specs are canonical.
+  std::shared_ptr<const Bed> fromBed;
+  bool checkOnly = false;      ///< --check: validate everything, print, pack nothing
+  nlohmann::json resumeState;  ///< the mode's state read from --resume (null = none)
 };
 
 /// Writes the checkpoint file of `scene` (JSON: format "voxpack-checkpoint", version 1,

@@ -40,12 +40,13 @@ bool finite(double v) { return std::isfinite(v); }
 
 }  // namespace
 
-void validate(const McOptions& o) {
+void validate(const McOptions& o, bool startBed) {
   require(finite(o.voxelSizeMm) && o.voxelSizeMm > 0, "voxel size must be a positive number");
   require(o.count >= 0, "--count must be >= 1");
   require(finite(o.fillHeightMm) && o.fillHeightMm >= 0, "--fill-height must be > 0");
-  require((o.count > 0) != (o.fillHeightMm > 0),
-          "give exactly one of --count N (>= 1) and --fill-height MM (> 0)");
+  require(
+      (o.count > 0) != (o.fillHeightMm > 0) || (startBed && o.count == 0 && o.fillHeightMm == 0),
+      "give exactly one of --count N (>= 1) and --fill-height MM (> 0)");
   require(o.supersample >= 1 && o.supersample <= 8, "--supersample must be in 1..8");
   require(finite(o.reboundProbability) && o.reboundProbability >= 0 && o.reboundProbability <= 1,
           "--rebound-probability must be in [0, 1]");
@@ -145,14 +146,15 @@ class McPacker {
  public:
   McPacker(const std::vector<MixtureComponent>& mixture, const Container& container,
            const McOptions& options, std::uint64_t seed, Progress& progress,
-           const McCheckpointing& checkpointing)
+           const McCheckpointing& checkpointing, const Bed* start)
       : mixture_(mixture),
         container_(container),
         o_(options),
         seed_(seed),
         progress_(progress),
         ckpt_(checkpointing),
-        lastCheckpoint_(std::chrono::steady_clock::now()) {}
+        lastCheckpoint_(std::chrono::steady_clock::now()),
+        start_(start) {}
 
   McResult run();
 
@@ -210,6 +212,7 @@ class McPacker {
   nlohmann::json saveState() const;
   void restoreState(const nlohmann::json& state);
   nlohmann::json identity() const;
+  void placeStartBed();
   std::int64_t injectBatch();
   int nextComponent();
   double highestCentreZ() const;
@@ -241,6 +244,8 @@ class McPacker {
   const McCheckpointing& ckpt_;
   std::chrono::steady_clock::time_point lastCheckpoint_;
   Cursor cursor_;
+  const Bed* start_ = nullptr;   // pack --from: the bed the walk starts from
+  std::int64_t startCount_ = 0;  // its particles (from the state when resuming)
 };
 
 bool McPacker::digitiseFree(int component, const Vec3& c, const Quat& q, std::uint32_t id,
@@ -373,7 +378,7 @@ void McPacker::report() {
   double f = 0;
   if (o_.count > 0)
     f = static_cast<double>(stats_.injected) / static_cast<double>(o_.count);
-  else
+  else if (o_.fillHeightMm > 0)
     f = (highestCentreZ() - bounds_.min.z()) / o_.fillHeightMm;
   f = std::max(f, static_cast<double>(stats_.sweeps) / static_cast<double>(o_.maxSweeps));
   progress_.report("mc packing", std::clamp(f, 0.0, 1.0));
@@ -556,11 +561,71 @@ void McPacker::sweepBoundary() {
 nlohmann::json McPacker::identity() const {
   nlohmann::json mix = nlohmann::json::array();
   for (const auto& m : mixture_) mix.push_back({m.shape->spec(), m.fraction});
-  return {{"options", toJson(o_)},
-          {"seed", seed_},
-          {"mixture", mix},
-          {"container", container_.spec()},
-          {"lattice", {lattice_.nz(), lattice_.ny(), lattice_.nx()}}};
+  nlohmann::json id = {{"options", toJson(o_)},
+                       {"seed", seed_},
+                       {"mixture", mix},
+                       {"container", container_.spec()},
+                       {"lattice", {lattice_.nz(), lattice_.ny(), lattice_.nx()}}};
+  // Only a run started from a bed has the key, so earlier checkpoints keep their identity.
+  if (startCount_ > 0) id["start_particles"] = startCount_;
+  return id;
+}
+
+// pack --from: the bed's particles, each digitised again at its stored pose, become the
+// first particles of the walk. The walk moves voxel sets, so they must give exactly the
+// bed's own voxels (its labels, or its solid when it has none), on no wall and on no other
+// particle: a bed whose poses do not rebuild its voxels (a DEM bed with overlaps, another
+// lattice or supersampling) would be continued as another bed, so it is refused.
+void McPacker::placeStartBed() {
+  const Bed& b = *start_;
+  const ParticleTable& t = b.particles;
+  if (b.lattice().dims != lattice_.dims)
+    throw InputError("the start bed: its lattice (" + std::to_string(b.lattice().nz()) + " x " +
+                     std::to_string(b.lattice().ny()) + " x " + std::to_string(b.lattice().nx()) +
+                     ") is not the walk's (" + std::to_string(lattice_.nz()) + " x " +
+                     std::to_string(lattice_.ny()) + " x " + std::to_string(lattice_.nx()) + ")");
+  if (t.empty() || t.orientation.size() != t.size() || t.shape.size() != t.size())
+    throw InputError("the start bed: no particle table with orientations and shapes");
+  DigitalParticle dp;
+  for (std::size_t n = 0; n < t.size(); ++n) {
+    int component = -1;
+    for (std::size_t c = 0; c < mixture_.size() && component < 0; ++c)
+      if (mixture_[c].shape->spec() == t.shape[n]) component = static_cast<int>(c);
+    if (component < 0)
+      throw InputError("the start bed: particle " + std::to_string(n + 1) + " has shape " +
+                       t.shape[n] + ", which is not one of the scene's shapes");
+    const std::uint32_t id = idOf(particles_.size());
+    if (!digitiseFree(component, t.positionMm[n], t.orientation[n], id, dp))
+      throw InputError("the start bed: particle " + std::to_string(n + 1) +
+                       " digitised again at its stored pose overlaps another particle or the "
+                       "wall layer; the walk cannot continue this bed");
+    Particle p;
+    p.component = component;
+    adopt(p, dp, t.positionMm[n], t.orientation[n]);
+    particles_.push_back(std::move(p));
+    writeLabels(particles_.back(), id);
+  }
+  std::size_t differ = 0, first = 0;
+  std::uint32_t firstBed = 0, firstMine = 0;
+  for (std::size_t o = 0; o < lattice_.size(); ++o) {
+    const std::uint32_t mine = labels_[o] == kWall ? 0 : labels_[o];
+    const bool same = b.labels ? (*b.labels)[o] == mine : (b.indicator[o] == 0) == (mine != 0);
+    if (same) continue;
+    if (differ++ == 0) {
+      first = o;
+      firstBed = b.labels ? (*b.labels)[o] : (b.indicator[o] == 0 ? 1u : 0u);
+      firstMine = mine;
+    }
+  }
+  if (differ > 0) {
+    const Index3 v = lattice_.indexOf(first);
+    throw InputError("the start bed: " + std::to_string(differ) +
+                     " voxels differ from the bed's own when its particles are digitised again "
+                     "at their stored poses (first at voxel (k, j, i) = (" +
+                     std::to_string(v.k) + ", " + std::to_string(v.j) + ", " + std::to_string(v.i) +
+                     "): bed " + std::to_string(firstBed) + ", digitised " +
+                     std::to_string(firstMine) + "); the walk cannot continue this bed");
+  }
 }
 
 nlohmann::json McPacker::saveState() const {
@@ -678,7 +743,11 @@ void McPacker::restoreState(const nlohmann::json& j) {
 
 McResult McPacker::run() {
   const auto t0 = std::chrono::steady_clock::now();
-  validate(o_);
+  if (start_) startCount_ = static_cast<std::int64_t>(start_->particles.size());
+  if (ckpt_.resume && ckpt_.resume->is_object() && ckpt_.resume->contains("identity") &&
+      (*ckpt_.resume)["identity"].is_object())
+    startCount_ = (*ckpt_.resume)["identity"].value("start_particles", std::int64_t{0});
+  validate(o_, startCount_ > 0);
   if (mixture_.empty()) throw InputError("no particle shape given");
   double total = 0;
   for (const auto& m : mixture_) {
@@ -724,6 +793,12 @@ McResult McPacker::run() {
   // height closer than one diameter to the top counts as reached when the bed gets there.
   const double fillGoalMm =
       std::min(o_.fillHeightMm, bounds_.max.z() - bounds_.min.z() - diameterMm_);
+  if (start_ && !ckpt_.resume) {
+    placeStartBed();
+    // Nothing to add: the start bed goes straight to its taps (and is returned as it is
+    // without them).
+    if (o_.count == 0 && !(o_.fillHeightMm > 0)) cursor_.stage = Stage::AfterFill;
+  }
   if (ckpt_.resume) restoreState(*ckpt_.resume);
   Cursor& c = cursor_;
   const int tapSweeps = o_.tapSweeps > 0 ? o_.tapSweeps : window_;
@@ -808,8 +883,8 @@ McResult McPacker::run() {
 
 McResult packMonteCarlo(const std::vector<MixtureComponent>& mixture, const Container& container,
                         const McOptions& options, std::uint64_t seed, Progress& progress,
-                        const McCheckpointing& checkpointing) {
-  McPacker packer(mixture, container, options, seed, progress, checkpointing);
+                        const McCheckpointing& checkpointing, const Bed* start) {
+  McPacker packer(mixture, container, options, seed, progress, checkpointing, start);
   return packer.run();
 }
 

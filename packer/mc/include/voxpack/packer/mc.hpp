@@ -55,8 +55,10 @@ struct McOptions {
   int tapSweeps = 0;                     ///< sweeps of raised p_r per tap; 0 = K
 };
 
-/// Throws InputError naming the option when a field is out of range.
-void validate(const McOptions& options);
+/// Throws InputError naming the option when a field is out of range. With `startBed` (a
+/// run continued from a bed) count = 0 and fill height = 0 together are allowed: nothing
+/// is added, the bed is only tapped.
+void validate(const McOptions& options, bool startBed = false);
 
 /// Peak bytes packMonteCarlo() needs for `container` at options.voxelSizeMm, before it
 /// allocates anything: the walk's labels (4 B), occupancy bits and mask per voxel, then
@@ -105,12 +107,15 @@ struct McCheckpointing {
 
 /// Packs `mixture` into `container` by the Monte Carlo walk. Deterministic for a given
 /// seed (the walk is sequential: thread count cannot change it), and a run resumed from a
-/// checkpoint gives the same bed as the uninterrupted one. Throws InputError on bad
-/// options or a particle that digitises to nothing; Cancelled when progress asks.
+/// checkpoint gives the same bed as the uninterrupted one. With `start` (pack --from
+/// BED.h5) the walk begins with the bed's particles at their stored poses (see
+/// placeStartBed's checks in docs/mc.md) and options.count more are injected on top.
+/// Throws InputError on bad options, a particle that digitises to nothing, or a start
+/// bed whose particles do not give its own voxels again; Cancelled when progress asks.
 McResult packMonteCarlo(const std::vector<MixtureComponent>& mixture, const Container& container,
                         const McOptions& options, std::uint64_t seed,
                         Progress& progress = nullProgress(),
-                        const McCheckpointing& checkpointing = {});
+                        const McCheckpointing& checkpointing = {}, const Bed* start = nullptr);
 
 /// The options as a JSON object (provenance).
 nlohmann::json toJson(const McOptions& options);
