@@ -210,13 +210,21 @@ TEST(PackFrom, BedThatDoesNotFitTheSceneIsRefusedNamingTheMismatch) {
                   "is not the lattice of container", out);
     expectRefused(from("dem", tmp / "anon.h5", {}), "--container is required", out);
   }
-  // A particle table whose poses do not give the bed's voxels again (one centre moved by
-  // 0.6 voxel) cannot be continued by the walk, which moves voxel sets.
+  // A particle table whose poses do not give the bed's voxels again cannot be continued by
+  // the walk, which moves voxel sets: the top particle lifted by 0.6 voxel into free space
+  // (its voxels differ), and one moved sideways into its neighbour (an overlap).
   {
     Bed moved = readBed(mc);
+    std::size_t top = 0;
+    for (std::size_t p = 0; p < moved.particles.size(); ++p)
+      if (moved.particles.positionMm[p].z() > moved.particles.positionMm[top].z()) top = p;
+    moved.particles.positionMm[top].z() += 0.15;
+    writeBed(tmp / "lifted.h5", moved);
+    expectRefused(from("mc", tmp / "lifted.h5", {}), "voxels differ from the bed's own", out);
+    moved = readBed(mc);
     moved.particles.positionMm[0].x() += 0.15;
     writeBed(tmp / "moved.h5", moved);
-    expectRefused(from("mc", tmp / "moved.h5", {}), "the walk cannot continue this bed", out);
+    expectRefused(from("mc", tmp / "moved.h5", {}), "overlaps another particle", out);
   }
   // A bed without its particle table (an imaged bed) cannot be continued.
   Bed b = readBed(mc);
