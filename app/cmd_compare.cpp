@@ -2,6 +2,7 @@
 // distances of each candidate to the reference, and a self-contained HTML report.
 #include <cstdlib>
 #include <iostream>
+#include <set>
 
 #include "command.hpp"
 #include "voxpack/compare/compare.hpp"
@@ -64,9 +65,32 @@ class CompareCommand final : public Command {
     for (const auto& p : std::vector<std::string>{reference_}) checkReadable(p, "--reference");
     for (const auto& p : candidates_) checkReadable(p, "candidate");
     if (!figureScript_.empty()) checkReadable(figureScript_, "--figure-script");
+    std::error_code ec;
+    const bool folderExisted = fs::exists(output_, ec);
     ensureWritableDirectory(output_, true);
+    std::set<fs::path> before;
+    for (const auto& e : fs::directory_iterator(output_)) before.insert(e.path());
+    // Interrupted, compare leaves the folder as it found it: the files it added go, and the
+    // folder when it made it (a file it replaced keeps its new content).
+    try {
+      return run(global);
+    } catch (const Cancelled&) {
+      std::vector<fs::path> added;
+      for (const auto& e : fs::directory_iterator(output_, ec))
+        if (!before.count(e.path())) added.push_back(e.path());
+      for (const auto& p : added) fs::remove_all(p, ec);
+      if (!folderExisted) fs::remove(output_, ec);
+      throw;
+    }
+  }
 
-    CommandProgress progress(global);
+ private:
+  int run(const GlobalOptions& global) {
+    namespace fs = std::filesystem;
+    CommandProgress bar(global);
+    // Every stage start of the statistics is a poll (the library polls only inside the mean
+    // empty space); the report is written whole, then the stop request is honoured.
+    StopAtStageProgress progress(bar);
     compare::CompareOptions opt;
     opt.stats.particleDiameterMm = particleDiameterMm_;
     opt.stats.trimMm = trimMm_;
@@ -123,7 +147,9 @@ class CompareCommand final : public Command {
                            "uniform common grid (mm) over the overlapping range"},
                           {"s2_rmse", "RMSE of S2 vs lag, same common-grid scheme (mm)"},
                           {"mes_ks", "sup |F_ref - F_cand| of the binned mean-empty-space CDFs"}}}};
-    const compare::ReportResult r = compare::writeReport(output_, c, ro, progress);
+    progress.poll("compare: before the report");
+    const compare::ReportResult r = compare::writeReport(output_, c, ro, bar);
+    progress.poll("compare: report written");
     for (const auto& w : r.warnings) progress.message("warning: " + w);
     if (!r.warnings.empty() && global.quiet)
       for (const auto& w : r.warnings)
@@ -134,7 +160,6 @@ class CompareCommand final : public Command {
     return 0;
   }
 
- private:
   static void checkReadable(const std::string& p, const char* what) {
     std::error_code ec;
     if (!std::filesystem::is_regular_file(p, ec))

@@ -169,7 +169,9 @@ class IngestCommand final : public Command {
                      what);
       requireWithinBudget(estimateIngestPeakBytes(l, o_), global.memory, what);
     };
-    CommandProgress progress(global);
+    CommandProgress bar(global);
+    // Every stage start is a poll: the in-memory pipeline polls nowhere else.
+    StopAtStageProgress progress(bar);
     // The header alone decides: in memory when the pipeline fits the budget, else by
     // z-slab, else refused before any voxel is read.
     std::optional<VolumeHeader> header;
@@ -182,6 +184,7 @@ class IngestCommand final : public Command {
       if (int rc = 0; maybeStream(*header, global, progress, rc)) return rc;
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
+    progress.poll("ingest: before writing " + output_);
     writeBed(out, r.bed);
     if (json_) {
       std::cout << r.report.dump(2) << '\n';

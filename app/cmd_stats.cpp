@@ -148,7 +148,9 @@ class StatsCommand final : public Command {
           " cannot be streamed in slabs; pass --only with axial,radial,s2,orientation");
     }
 
-    CommandProgress progress(global);
+    CommandProgress bar(global);
+    // Every statistic's start is a poll (the library polls inside a few only).
+    StopAtStageProgress progress(bar);
     nlohmann::json stats;
     if (stream) {
       stats::StreamOptions so;
@@ -167,6 +169,7 @@ class StatsCommand final : public Command {
     stats["command_line"] = global.commandLine;
     stats["input_provenance"] = header.provenance;
     if (comm.rank() != 0) return 0;
+    progress.poll("stats: before writing " + output_);
     if (!csvDir_.empty()) {
       stats::writeStatsCsv(stats, csvDir_);
       stats::writeShadowPngs(stats, csvDir_);

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "voxpack/core/errors.hpp"
 #include "voxpack/core/memory.hpp"
 #include "voxpack/core/progress.hpp"
 
@@ -16,10 +17,10 @@ namespace voxpack::app {
 
 /// Options every command shares (registered on the top-level app).
 struct GlobalOptions {
-  int threads = 0;      ///< --threads N (0 = all hardware threads)
-  bool quiet = false;   ///< --quiet: no progress, no messages
-  std::string commandLine;  ///< the whole command line, for provenance
-  MemoryBudget memory;      ///< --memory-limit SIZE (default 75 % of the memory available)
+  int threads = 0;               ///< --threads N (0 = all hardware threads)
+  bool quiet = false;            ///< --quiet: no progress, no messages
+  std::string commandLine;       ///< the whole command line, for provenance
+  MemoryBudget memory;           ///< --memory-limit SIZE (default 75 % of the memory available)
   Progress* progress = nullptr;  ///< extra progress/cancel hook (the Python module), or null
 };
 
@@ -36,6 +37,29 @@ class CommandProgress final : public Progress {
  private:
   StderrProgress stderr_;
   Progress* external_;
+};
+
+/// Progress that turns every stage start into a poll: once a stop was asked (SIGINT or
+/// SIGTERM, or the caller's hook), report() throws Cancelled. ingest, stats and compare call
+/// library code that polls in a few stages only; without this a signal in another stage let
+/// the command run on and write its output, or end by the grace alarm.
+class StopAtStageProgress final : public Progress {
+ public:
+  /// Forwards reports, messages and the stop request to `inner`.
+  explicit StopAtStageProgress(Progress& inner) : inner_(inner) {}
+  void report(std::string_view stage, double fraction) override {
+    poll(stage);
+    inner_.report(stage, fraction);
+  }
+  bool cancelled() const override { return inner_.cancelled(); }
+  void message(std::string_view text) override { inner_.message(text); }
+  /// Throws Cancelled naming `what` when a stop was asked (call it before writing output).
+  void poll(std::string_view what) const {
+    if (inner_.cancelled()) throw Cancelled(std::string(what));
+  }
+
+ private:
+  Progress& inner_;
 };
 
 /// A voxpack subcommand.
