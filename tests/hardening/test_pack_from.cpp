@@ -233,3 +233,32 @@ TEST(PackFrom, BedThatDoesNotFitTheSceneIsRefusedNamingTheMismatch) {
   expectRefused(from("mc", bare, {}), "no particle table", out);
   expectRefused(from("dem", bare, {}), "no particle table", out);
 }
+
+TEST(PackFrom, CheckpointOfARunFromABedResumesWithoutTheBed) {
+  TempDir tmp;
+  for (const std::string mode : {"dem", "mc"}) {
+    SCOPED_TRACE(mode);
+    const auto scene = mode == "dem" ? demScene() : mcScene();
+    const auto bed = tmp / (mode + "_bed.h5"), a = tmp / (mode + "_a.h5"),
+               b = tmp / (mode + "_b.h5"), ckpt = tmp / (mode + ".ckpt");
+    auto r = runVoxpack(with(scene, {"--count", "16", "-o", bed.string()}));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    // Checkpoints often (the MC walk takes ~0.05 s); the file ends with one of its late
+    // states.
+    r = runVoxpack(with(scene, {"--from", bed.string(), "--count", "10",
+                                mode == "dem" ? "--tap-cycles" : "--mc-tap-cycles", "1", "-o",
+                                a.string(), "--checkpoint", ckpt.string(), "--checkpoint-every",
+                                mode == "dem" ? "0.05" : "0.001"}));
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    ASSERT_TRUE(std::filesystem::exists(ckpt));
+    // The state holds every particle: the start bed is not needed to resume.
+    std::filesystem::remove(bed);
+    r = runVoxpack(
+        {"--threads", "2", "pack", "--resume", ckpt.string(), "-o", b.string(), "--quiet"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const Bed ba = readBed(a), bb = readBed(b);
+    EXPECT_EQ(bb.particles.size(), 26u);
+    expectSameBed(ba, bb);
+    EXPECT_EQ(bb.provenance["from"].value("file", ""), bed.string());
+  }
+}
