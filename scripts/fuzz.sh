@@ -46,6 +46,20 @@ limitsFor() {
   [[ $1 == bed_reader ]] && malloc=$((1 << 24))
   echo -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=$malloc
 }
+# Scratch folders (fuzz_common.hpp) of fuzzer processes that have ended; those of a target
+# still running (another run, or the children of -fork) stay.
+cleanScratch() {
+  local d
+  for d in /tmp/voxpack_fuzz_*; do
+    [[ -d $d ]] && ! kill -0 "${d##*_}" 2>/dev/null && rm -rf "$d"
+  done
+  return 0
+}
+# VOXPACK_FUZZ_KEEP_GOING=1: run in a child process (-fork=1) that is restarted after a
+# crash, leak, timeout or OOM, so one run collects every finding of its time.
+keepGoing=()
+[[ "${VOXPACK_FUZZ_KEEP_GOING:-0}" == 1 ]] &&
+  keepGoing=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1)
 found=0
 if [[ $regress -eq 1 ]]; then
   for t in "${targets[@]}"; do
@@ -61,7 +75,7 @@ if [[ $regress -eq 1 ]]; then
     wait "$pid"
     rc=$?
     set -e
-    rm -rf "/tmp/voxpack_fuzz_$pid"
+    cleanScratch
     echo "fuzz --regress: $t: $(grep -c '^Executed ' "$log") inputs, exit $rc"
     if [[ $rc -ne 0 ]]; then
       tail -40 "$log"
@@ -78,15 +92,15 @@ for t in "${targets[@]}"; do
   log="$build/fuzz_$t.log"
   echo "fuzz: $t for ${seconds} s"
   set +e
-  "$build/bin/fuzz_$t" "$corpus" -max_total_time="$seconds" $(limitsFor "$t") -max_len=65536 \
+  "$build/bin/fuzz_$t" "$corpus" -max_total_time="$seconds" $(limitsFor "$t") "${keepGoing[@]}" -max_len=65536 \
     -print_final_stats=1 -artifact_prefix="$artifacts/" >"$log" 2>&1 &
   pid=$!
   wait "$pid"
   rc=$?
   set -e
-  # Only this run's scratch folder (fuzz_common.hpp): another target may be running.
-  rm -rf "/tmp/voxpack_fuzz_$pid"
+  cleanScratch
   status="$(grep -E '^#[0-9]+' "$log" | tail -1 || true)"
+  [[ ${#keepGoing[@]} -gt 0 ]] && status="$(grep -E '^#[0-9]+: cov' "$log" | tail -1 || true)"
   echo "  exit $rc; $status"
   echo "$(date -u +%FT%TZ) $t ${seconds}s exit=$rc load=$(cut -d' ' -f1-3 /proc/loadavg | tr ' ' /)" \
     "$status" >>"$build/fuzz-runs.txt"

@@ -1,0 +1,225 @@
+// Issue 14, fuzzing: each input saved in fuzz/findings/TARGET/ made a reader hang, crash or
+// overrun; each is now a typed refusal within seconds. The runs are bounded (a child
+// process with an alarm, the CLI with a kill after a deadline) so that a regression fails
+// the test instead of hanging the suite.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli_runner.hpp"
+#include "hardening_support.hpp"
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/errors.hpp"
+
+using namespace voxpack::test;
+
+namespace {
+
+const std::string kFindings = std::string(VOXPACK_SOURCE_DIR) + "/fuzz/findings/";
+const std::string kCorpus = std::string(VOXPACK_SOURCE_DIR) + "/fuzz/corpus/";
+
+// How a bounded readBed in a child process ended.
+enum class ReadOutcome { Read, FormatError, IoError, OtherError, Crashed, Hung };
+
+// readBed(path) in a forked child that an alarm kills after `seconds`: a libhdf5 loop
+// becomes Hung instead of a stuck test. `message` gets the refusal's text.
+ReadOutcome boundedReadBed(const std::filesystem::path& path, std::string& message,
+                           unsigned seconds = 20) {
+  int fds[2];
+  if (pipe(fds) != 0) return ReadOutcome::OtherError;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    alarm(seconds);
+    int code = 0;
+    std::string text;
+    try {
+      (void)voxpack::readBed(path);
+    } catch (const voxpack::FormatError& e) {
+      code = 1;
+      text = e.what();
+    } catch (const voxpack::IoError& e) {
+      code = 3;
+      text = e.what();
+    } catch (const std::exception& e) {
+      code = 2;
+      text = e.what();
+    }
+    if (!text.empty()) (void)!write(fds[1], text.data(), text.size());
+    _exit(code);
+  }
+  close(fds[1]);
+  char buf[512];
+  ssize_t n = 0;
+  while ((n = read(fds[0], buf, sizeof buf)) > 0) message.append(buf, static_cast<size_t>(n));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (WIFSIGNALED(status))
+    return WTERMSIG(status) == SIGALRM ? ReadOutcome::Hung : ReadOutcome::Crashed;
+  switch (WEXITSTATUS(status)) {
+    case 0:
+      return ReadOutcome::Read;
+    case 1:
+      return ReadOutcome::FormatError;
+    case 3:
+      return ReadOutcome::IoError;
+    default:
+      return ReadOutcome::OtherError;
+  }
+}
+
+// `voxpack ARGS` killed after `seconds`; exit code (-1 when it had to be killed) and stderr.
+std::pair<int, std::string> boundedCli(const std::vector<std::string>& args,
+                                       const std::filesystem::path& errFile, double seconds = 20) {
+  const pid_t pid = spawnVoxpack(args, errFile);
+  const auto t0 = std::chrono::steady_clock::now();
+  int status = 0;
+  while (waitpid(pid, &status, WNOHANG) != pid) {
+    if (std::chrono::steady_clock::now() - t0 > std::chrono::duration<double>(seconds)) {
+      kill(pid, SIGKILL);
+      waitpid(pid, &status, 0);
+      return {-1, fileText(errFile)};
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), fileText(errFile)};
+}
+
+std::vector<char> bytesOf(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+const char* kVlenLoop = "bed_reader/timeout-acb82eb23d8e2d1c4893677c6f52b0052be1f38a";
+
+}  // namespace
+
+// fuzz_bed_reader: the free-space object of the global heap collection that holds the
+// `format` and `provenance` strings had size 0, and libhdf5 1.10's collection parser steps
+// by that size: H5Aread looped forever in H5HG_read (voxpack info ran 15 CPU minutes).
+TEST(FuzzRegressions, BedWithZeroSizeHeapFreeSpaceIsRefusedInsteadOfLooping) {
+  std::string message;
+  const auto outcome = boundedReadBed(kFindings + kVlenLoop, message);
+  ASSERT_NE(outcome, ReadOutcome::Hung) << "readBed still loops inside libhdf5";
+  EXPECT_EQ(outcome, ReadOutcome::FormatError) << message;
+  EXPECT_NE(message.find("global heap collection"), std::string::npos) << message;
+  EXPECT_NE(message.find("does not fit the collection"), std::string::npos) << message;
+}
+
+// The same file through the CLI: one `error:` line and exit 2, within seconds.
+TEST(FuzzRegressions, InfoOnTheHeapLoopBedExitsTwoWithinSeconds) {
+  TempDir tmp;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto [code, err] = boundedCli({"info", kFindings + kVlenLoop}, tmp / "err.txt");
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_NE(code, -1) << "voxpack info was still running after 20 s";
+  EXPECT_EQ(code, 2) << err;
+  EXPECT_EQ(countErrorLines(err), 1) << err;
+  EXPECT_NE(err.find("global heap collection"), std::string::npos) << err;
+  EXPECT_LT(s, 20);
+}
+
+// A heap object longer than the string's stored length: libhdf5 copies the object's size
+// into a buffer sized by the length (a heap overrun). Here the object of the `format`
+// string ("voxpack-bed", 11 bytes) says 15: same 16-byte padding, so the collection still
+// walks, and only the comparison of the two sizes refuses it.
+TEST(FuzzRegressions, StringLongerInTheHeapThanItsLengthIsRefused) {
+  TempDir tmp;
+  auto bytes = bytesOf(kCorpus + "bed_reader/one_voxel.h5");
+  const std::string needle = "voxpack-bed";
+  auto it = std::search(bytes.begin(), bytes.end(), needle.begin(), needle.end());
+  ASSERT_NE(it, bytes.end());
+  // The object header (index 2, refcount 2, reserved 4, size 8) ends where the text starts.
+  const auto size = static_cast<std::size_t>(it - bytes.begin()) - 8;
+  ASSERT_EQ(bytes[size], 11);
+  bytes[size] = 15;
+  const auto path = tmp / "long_object.h5";
+  std::ofstream(path, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  std::string message;
+  EXPECT_EQ(boundedReadBed(path, message), ReadOutcome::FormatError) << message;
+  EXPECT_NE(message.find("attribute format declares a string of 11 bytes stored in a heap object "
+                         "of 15"),
+            std::string::npos)
+      << message;
+}
+
+// The check must not refuse what voxpack wrote: every bed of the seed corpus (written by
+// voxpack: strings in the global heap, a shape table) still reads, with its strings.
+TEST(FuzzRegressions, SeedBedsWrittenByVoxpackStillRead) {
+  for (const auto& e : std::filesystem::directory_iterator(kCorpus + "bed_reader")) {
+    std::string message;
+    EXPECT_EQ(boundedReadBed(e.path(), message), ReadOutcome::Read) << e.path() << ": " << message;
+  }
+  const auto bed = voxpack::readBed(kCorpus + "bed_reader/full.h5");
+  EXPECT_EQ(bed.provenance.value("voxpack_version", ""), "seed");
+  ASSERT_EQ(bed.particles.shape.size(), 1u);
+  EXPECT_FALSE(bed.particles.shape[0].empty());
+}
+
+// fuzz_bed_reader, leaks: libhdf5 1.10.8 loses memory on its own error paths (a corrupt
+// root object header in H5Fopen, a corrupt layout message in H5Dopen2); that is
+// suppressed in fuzz/lsan.supp, voxpack cannot free it. What voxpack owes is a typed
+// refusal naming the file, which this checks.
+TEST(FuzzRegressions, FilesThatLeakInsideLibhdf5AreRefused) {
+  struct Case {
+    const char* file;
+    ReadOutcome outcome;
+    const char* message;
+  };
+  for (const Case& c : {Case{"bed_reader/leak-93de454cd6f03c9173d644b210fc91db308aa54e",
+                             ReadOutcome::IoError, "cannot open as HDF5"},
+                        Case{"bed_reader/leak-785245b128f0dc9ae1caae1f184f86b4783b4de9",
+                             ReadOutcome::FormatError, "/indicator is not a dataset"}}) {
+    std::string message;
+    EXPECT_EQ(boundedReadBed(kFindings + c.file, message), c.outcome) << c.file << ": " << message;
+    EXPECT_NE(message.find(c.message), std::string::npos) << message;
+    EXPECT_NE(message.find(c.file), std::string::npos) << message;
+  }
+}
+
+// fuzz_bed_reader, 1 GiB allocation: the root group's continuation message declares a
+// chunk of 1 GiB + 448 bytes in a 13.5 KB file, and libhdf5 1.10 allocates it before it
+// finds the chunk past the end of the file. Not fixed here (it happens inside H5Fopen);
+// what this holds is that the file is still refused, not read.
+TEST(FuzzRegressions, HugeContinuationChunkInTheRootHeaderIsRefused) {
+  std::string message;
+  EXPECT_EQ(boundedReadBed(kFindings + "bed_reader/oom-db6073d885f64df7dbd190cc4c386de632238efa",
+                           message),
+            ReadOutcome::IoError)
+      << message;
+  EXPECT_NE(message.find("cannot open as HDF5"), std::string::npos) << message;
+}
+
+// fuzz_image_header, leak: an attached NRRD whose ASCII data stops one value short (7 of
+// 8). ITK 5.2's NrrdImageIO::Read throws without freeing teem's Nrrd struct (suppressed
+// in fuzz/lsan.supp: ITK's memory); voxpack owes one `error:` line, exit 2 and no bed.
+TEST(FuzzRegressions, NrrdThatLeaksInsideItkIsRefused) {
+  TempDir tmp;
+  const auto bytes =
+      bytesOf(kFindings + "image_header/leak-3ce5bd9a7d99b8ff4ffc2b4753c0d40edd82a1fe");
+  ASSERT_FALSE(bytes.empty());
+  // The first byte picks the format (0: attached NRRD); the rest is the file.
+  ASSERT_EQ(bytes[0], 0);
+  const auto image = tmp / "short.nrrd";
+  std::ofstream(image, std::ios::binary)
+      .write(bytes.data() + 1, static_cast<std::streamsize>(bytes.size() - 1));
+  const auto [code, err] =
+      boundedCli({"ingest", image.string(), "-o", (tmp / "bed.h5").string()}, tmp / "err.txt", 60);
+  EXPECT_EQ(code, 2) << err;
+  EXPECT_EQ(countErrorLines(err), 1) << err;
+  EXPECT_NE(err.find("short.nrrd"), std::string::npos) << err;
+  EXPECT_FALSE(std::filesystem::exists(tmp / "bed.h5"));
+}
