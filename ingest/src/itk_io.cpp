@@ -17,8 +17,10 @@
 #include <itkLSMImageIOFactory.h>
 #include <itkMRCImageIOFactory.h>
 #include <itkMetaDataObject.h>
+#include <itkMetaImageIO.h>
 #include <itkMetaImageIOFactory.h>
 #include <itkNiftiImageIOFactory.h>
+#include <itkNrrdImageIO.h>
 #include <itkNrrdImageIOFactory.h>
 #include <itkObjectFactoryBase.h>
 #include <itkPNGImageIOFactory.h>
@@ -62,8 +64,19 @@ Raw<float> fromItk(const FloatImage3* img) {
 
 itk::ImageIOBase::Pointer createIO(const std::string& file) {
   registerFactories();
-  itk::ImageIOBase::Pointer io =
-      itk::ImageIOFactory::CreateImageIO(file.c_str(), itk::IOFileModeEnum::ReadMode);
+  // NRRD and MetaImage files get their own reader: ITK's factory asks every reader whether
+  // it can read the bytes, and an .mha beginning with the PNG signature (found by
+  // fuzz_image_header) went to PNGImageIO, whose libpng error handler abort()s the process.
+  const auto dot = file.find_last_of('.');
+  const std::string ext = dot == std::string::npos ? "" : lower(file.substr(dot));
+  itk::ImageIOBase::Pointer io;
+  if (ext == ".nrrd" || ext == ".nhdr")
+    io = itk::NrrdImageIO::New();
+  else if (ext == ".mha" || ext == ".mhd")
+    io = itk::MetaImageIO::New();
+  if (io && !io->CanReadFile(file.c_str()))
+    throw FormatError(file + ": not a " + (ext[1] == 'n' ? "NRRD" : "MetaImage") + " file");
+  if (!io) io = itk::ImageIOFactory::CreateImageIO(file.c_str(), itk::IOFileModeEnum::ReadMode);
   if (!io) throw FormatError(file + ": not an image format ITK can read");
   io->SetFileName(file);
   try {

@@ -246,3 +246,13 @@ TEST(FuzzRegressions, MhaThatLeaksInsideItkIsRefused) {
       tmp, imageFromFinding(tmp.path(), "leak-9f9b28eb5ece5988aae9e6f15057f8c65d014e48", 1,
                             "missing_data.mha"));
 }
+
+// fuzz_image_header, crash: an .mha whose bytes begin with the PNG signature. ITK's factory
+// handed it to PNGImageIO, and libpng's error on its first chunk abort()ed the process
+// (exit 134). A .nrrd/.nhdr/.mha/.mhd now gets its own reader, which refuses it.
+TEST(FuzzRegressions, MhaWithPngBytesIsRefusedInsteadOfAborting) {
+  TempDir tmp;
+  expectIngestRefused(
+      tmp, imageFromFinding(tmp.path(), "crash-28d5956e43b79180365c6ce3283cd557c35ecc37", 1,
+                            "png_bytes.mha"));
+}
