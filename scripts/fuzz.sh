@@ -24,6 +24,9 @@ targets=("$@")
 [[ ${#targets[@]} -eq 0 ]] && targets=(bed_reader stl scene image_header)
 build="${VOXPACK_FUZZ_BUILD_DIR:-$root/build-fuzz}"
 export CCACHE_BASEDIR="$root"
+# -g puts the build folder into the objects, and ccache then keys on it: without this a
+# second fuzz build folder (e.g. a fresh one in CI) hits nothing of the first one's cache.
+export CCACHE_NOHASHDIR=1
 if [[ ! -f "$build/CMakeCache.txt" ]]; then
   CC=clang-14 CXX=clang++-14 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DVOXPACK_FUZZ=ON -DVOXPACK_SANITIZE=address,undefined,fuzzer-no-link \
