@@ -51,7 +51,10 @@ void checkMetaImageHeader(const fs::path& header) {
   if (!in) throw IoError(header.string() + ": cannot open");
   std::map<std::string, std::string> kv;
   std::string line;
-  while (std::getline(in, line)) {
+  std::size_t read = 0;
+  // A header is a few hundred bytes; past 1 MiB (an .mha's voxels) the key is not coming.
+  while (read < (std::size_t{1} << 20) && std::getline(in, line)) {
+    read += line.size() + 1;
     const auto eq = line.find('=');
     if (eq == std::string::npos) continue;
     const std::string key = lower(trim(line.substr(0, eq)));
@@ -61,8 +64,15 @@ void checkMetaImageHeader(const fs::path& header) {
   const auto dataIt = kv.find("elementdatafile");
   if (dataIt == kv.end()) throw FormatError(header.string() + ": no ElementDataFile in the header");
   const std::string dataName = dataIt->second;
-  if (dataName == "LOCAL" || dataName == "LIST" || dataName.find('%') != std::string::npos)
-    return;  // data follows the header or is a file list: left to ITK
+  // A file list or a printf pattern ("slice%03d.raw 1 40 1") names many data files; ITK
+  // 5.2 divides by the pattern's step without checking it (a fuzzed .mha with
+  // 'ElementDataFile = LOCANibj 0%5JEleme' died with SIGFPE), and voxpack reads stacks as
+  // folders of slices instead, so both are refused.
+  if (dataName == "LIST" || dataName.find('%') != std::string::npos)
+    throw FormatError(header.string() + ": ElementDataFile '" + dataName +
+                      "' names a list or pattern of data files, which voxpack does not read "
+                      "(give one data file, LOCAL, or a folder of slices)");
+  if (dataName == "LOCAL") return;  // the data follows the header
   fs::path data = dataName;
   if (data.is_relative()) data = header.parent_path() / data;
   std::error_code ec;
@@ -126,7 +136,8 @@ Lattice headerLattice(const bridge::Header& h, std::size_t slices) {
 }
 
 Volume readSingleFile(const fs::path& file, const ReadOptions& options, Progress& progress) {
-  if (lower(file.extension().string()) == ".mhd") checkMetaImageHeader(file);
+  const std::string ext = lower(file.extension().string());
+  if (ext == ".mhd" || ext == ".mha") checkMetaImageHeader(file);
   const bridge::Header h = bridge::readHeader(file.string());
   if (h.metadata.count("voxpack_components"))
     throw FormatError(file.string() + ": has " + h.metadata.at("voxpack_components") +

@@ -256,3 +256,13 @@ TEST(FuzzRegressions, MhaWithPngBytesIsRefusedInsteadOfAborting) {
       tmp, imageFromFinding(tmp.path(), "crash-28d5956e43b79180365c6ce3283cd557c35ecc37", 1,
                             "png_bytes.mha"));
 }
+
+// fuzz_image_header, crash: an .mha whose ElementDataFile reads 'LOCANibj 0%5JEleme', a
+// printf pattern of data files; ITK 5.2's MetaImage::ReadStream divided by its step and the
+// release ingest died with SIGFPE (exit 136). Lists and patterns are refused up front.
+TEST(FuzzRegressions, MhaWithADataFilePatternIsRefusedInsteadOfSigfpe) {
+  TempDir tmp;
+  expectIngestRefused(
+      tmp, imageFromFinding(tmp.path(), "crash-c2512ebc75bf3cecc12a21eaf8d5f967b4f6c43e", 1,
+                            "pattern.mha"));
+}
