@@ -24,6 +24,8 @@ if [[ "${VOXPACK_SANITIZER_STAGE:-0}" == "1" ]]; then
   cd "$asan"
   # LeakSanitizer under ptrace-less CI is fine; OpenMP's runtime keeps its pools alive.
   export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1"
+  # Narrow suppressions for leaks inside system libraries, one reason each in the file.
+  export LSAN_OPTIONS="suppressions=$root/scripts/lsan.supp"
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
   ctest --output-on-failure -j "${VOXPACK_TEST_JOBS:-2}" --timeout 900 -LE "no_sanitizer"
   echo "test: sanitizer results in $asan/Testing"
