@@ -608,6 +608,10 @@ Dims s2MaxLag(const Lattice& lattice, const S2Options& options) {
 
 Dims s2PaddedDims(const Dims& dims, const Dims& maxLag) { return paddedDims(dims, maxLag); }
 
+Dims s2TileOwn(std::int64_t planes, std::int64_t ny, std::int64_t nx, std::int64_t edge) {
+  return {planes, edge > 0 ? std::min(edge, ny) : ny, edge > 0 ? std::min(edge, nx) : nx};
+}
+
 Dims s2TileBox(const Dims& own, const Dims& maxLag) {
   return {fftFriendlySize(own[0] + maxLag[0]), fftFriendlySize(own[1] + 2 * maxLag[1]),
           fftFriendlySize(own[2] + 2 * maxLag[2])};
@@ -675,10 +679,9 @@ void S2SlabAccumulator::addTiles(std::int64_t own, const Grid<std::uint8_t>& ind
                                  const Grid<std::uint8_t>* mask) {
   const Dims d = indicator.lattice().dims;  // own planes + halo (clipped at the top)
   const std::int64_t ny = d[1], nx = d[2], hy = maxLag_[1], hx = maxLag_[2];
-  const std::int64_t edge = options_.tileVoxels;
-  const std::int64_t ty = edge > 0 ? std::min(edge, ny) : ny;
-  const std::int64_t tx = edge > 0 ? std::min(edge, nx) : nx;
-  const Dims box = s2TileBox({own, ty, tx}, maxLag_);
+  const Dims tile = s2TileOwn(own, ny, nx, options_.tileVoxels);
+  const std::int64_t ty = tile[1], tx = tile[2];
+  const Dims box = s2TileBox(tile, maxLag_);
   for (int a = 0; a < 3; ++a) padded_[a] = std::max(padded_[a], box[a]);
   BoxCrossCorrelator<R> corr(box, maxLag_, options_.threads);
   const std::uint8_t* ind = indicator.data();

@@ -141,9 +141,7 @@ std::uint64_t estimateStreamedBytes(const BedHeader& h, const VoxelBox& region,
   std::uint64_t bytes = kProcessBaseBytes + particleTableBytes(h) + 16 * plane + 64 * u(d[0]);
   bytes += u(read) * plane * (1 + (h.hasMask ? 1 : 0)) + (h.hasMask ? plane : 0);
   if (s2) {
-    const std::int64_t edge = options.s2TileVoxels;
-    const Dims own{t, edge > 0 ? std::min(edge, d[1]) : d[1],
-                   edge > 0 ? std::min(edge, d[2]) : d[2]};
+    const Dims own = s2TileOwn(t, d[1], d[2], options.s2TileVoxels);
     bytes +=
         s2TileBufferBytes(own, lag, options.s2Float ? FftPrecision::Float : FftPrecision::Double);
     bytes += 4 * lagGridBytes(lag);
@@ -172,9 +170,9 @@ std::int64_t chooseS2TileVoxels(const BedHeader& h, const VoxelBox& region,
     const std::int64_t t =
         slabPlanes > 0 ? std::min(slabPlanes, d[0]) : slabPlanesWithin(h, region, o, budget);
     if (t <= 0 || !fitsWithHeadroom(budget, estimateStreamedBytes(h, region, o, t))) continue;
-    const std::int64_t ty = edge > 0 ? std::min(edge, d[1]) : d[1];
-    const std::int64_t tx = edge > 0 ? std::min(edge, d[2]) : d[2];
-    const Dims box = s2TileBox({t, ty, tx}, lag);
+    const Dims own = s2TileOwn(t, d[1], d[2], edge);
+    const std::int64_t ty = own[1], tx = own[2];
+    const Dims box = s2TileBox(own, lag);
     const double cells =
         static_cast<double>(box[0]) * static_cast<double>(box[1]) * static_cast<double>(box[2]);
     const double cost = static_cast<double>(split(d[0], t) * split(d[1], ty) * split(d[2], tx)) *

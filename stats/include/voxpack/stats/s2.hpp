@@ -95,6 +95,11 @@ std::array<std::int64_t, 3> s2MaxLag(const Lattice& lattice, const S2Options& op
 std::array<std::int64_t, 3> s2PaddedDims(const std::array<std::int64_t, 3>& dims,
                                          const std::array<std::int64_t, 3>& maxLag);
 
+/// Voxels (planes, rows, columns) one streamed S2 tile of `edge` (0 = whole planes) owns in
+/// a slab of `planes` planes of ny x nx: the edge clipped to the plane.
+std::array<std::int64_t, 3> s2TileOwn(std::int64_t planes, std::int64_t ny, std::int64_t nx,
+                                      std::int64_t edge);
+
 /// FFT box of one streamed S2 tile that owns `own` (planes, rows, columns) voxels: the
 /// tile plus hz planes above and hy, hx on each side, rounded up to FFT-friendly sizes.
 std::array<std::int64_t, 3> s2TileBox(const std::array<std::int64_t, 3>& own,
