@@ -5,7 +5,7 @@ set -euo pipefail
 
 PACKAGES=(
   build-essential cmake pkg-config clang-format ccache
-  libinsighttoolkit5-dev libeigen3-dev libfftw3-dev libhdf5-dev libcgal-dev
+  libinsighttoolkit5-dev libeigen3-dev libfftw3-dev libhdf5-dev libcgal-dev zlib1g-dev
   libgtest-dev libgmock-dev libomp-dev
   libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   python3-matplotlib python3-numpy python3-scipy python3-h5py

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <unordered_map>
 
+#include "hdf5_guard.hpp"
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/version.hpp"
@@ -57,6 +58,7 @@ class Handle {
 
 struct Ctx {
   std::string file;
+  bool mpio = false;  // opened through MPI-IO: file-level queries there are collective
   [[noreturn]] void format(const std::string& what) const { throw FormatError(file + ": " + what); }
   [[noreturn]] void io(const std::string& what) const { throw IoError(file + ": " + what); }
 };
@@ -366,6 +368,10 @@ Grid<T> readBox(const Ctx& ctx, hid_t ds, const char* path, const Lattice& latti
     start[a] = static_cast<hsize_t>(box.first[a]);
     count[a] = static_cast<hsize_t>(box.dims[a]);
   }
+  // voxpack decodes deflate/shuffle chunks itself, each checked to inflate to its size.
+  if (hdf5guard::readChunksChecked(ds, nativeType<T>(), 3, start, count, g.data(), ctx.mpio,
+                                   ctx.file, path))
+    return g;
   Handle fileSpace(H5Dget_space(ds), H5Sclose);
   Handle memSpace(H5Screate_simple(3, count, nullptr), H5Sclose);
   if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
@@ -409,8 +415,12 @@ std::vector<double> readMatrix(const Ctx& ctx, hid_t file, const char* path, std
                std::to_string(kMaxBedParticles) + ")");
   std::vector<double> v(static_cast<std::size_t>(
       checkedProduct({rows, cols, sizeof(double)}, ctx.file + ": " + path) / sizeof(double)));
-  if (!v.empty() &&
-      H5Dread(ds.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
+  if (v.empty()) return v;
+  const hsize_t start[2] = {0, 0}, count[2] = {rows, cols};
+  if (hdf5guard::readChunksChecked(ds.get(), H5T_NATIVE_DOUBLE, 2, start, count, v.data(), ctx.mpio,
+                                   ctx.file, path))
+    return v;
+  if (H5Dread(ds.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
     ctx.io(std::string("cannot read ") + path);
   return v;
 }
@@ -603,6 +613,8 @@ std::uint64_t particleRows(const Ctx& ctx, hid_t file, const char* path, int ran
 BedHeader readHeaderFrom(const Ctx& ctx, hid_t f) {
   Handle root(H5Gopen2(f, "/", H5P_DEFAULT), H5Gclose);
   if (!root.ok()) ctx.io("cannot open root group");
+  // Every attribute call decodes all of the root's attribute messages: check them first.
+  hdf5guard::checkAttributeMessages(root.get(), ctx.file, "root group");
 
   if (H5Aexists(root.get(), "format") <= 0) ctx.format("root attribute 'format' is missing");
   const std::string fmt = readStringAttr(ctx, root.get(), "format");
@@ -818,7 +830,7 @@ void writeBed(const fs::path& path, const Bed& bed, const BedWriteOptions& optio
 }
 
 BedHeader readBedHeader(const fs::path& path) {
-  const Ctx ctx{path.string()};
+  const Ctx ctx{path.string(), false};
   Handle file = openForRead(path, ctx);
   return readHeaderFrom(ctx, file.get());
 }
@@ -847,7 +859,7 @@ std::string dimsText(const Lattice& l) {
 }  // namespace
 
 Bed readBed(const fs::path& path, const MemoryBudget& budget) {
-  const Ctx ctx{path.string()};
+  const Ctx ctx{path.string(), false};
   Handle file = openForRead(path, ctx);
   const hid_t f = file.get();
   const BedHeader h = readHeaderFrom(ctx, f);
@@ -872,7 +884,7 @@ Bed readBed(const fs::path& path, const MemoryBudget& budget) {
 Bed readBed(const fs::path& path) { return readBed(path, defaultMemoryBudget()); }
 
 ParticleTable readBedParticles(const fs::path& path, const MemoryBudget& budget) {
-  const Ctx ctx{path.string()};
+  const Ctx ctx{path.string(), false};
   Handle file = openForRead(path, ctx);
   const BedHeader h = readHeaderFrom(ctx, file.get());
   requireWithinBudget(
@@ -884,7 +896,7 @@ ParticleTable readBedParticles(const fs::path& path, const MemoryBudget& budget)
 }
 
 std::vector<std::string> bedDatasets(const fs::path& path) {
-  const Ctx ctx{path.string()};
+  const Ctx ctx{path.string(), false};
   Handle file = openForRead(path, ctx);
   std::vector<std::string> out;
   for (const char* p : {"/indicator", "/mask", "/labels", "/particles/position_mm",
@@ -903,7 +915,7 @@ struct BedSlabReader::Impl {
   Handle mask{-1, H5Dclose};
   Handle labels{-1, H5Dclose};
   Impl(const fs::path& path, bool parallel)
-      : ctx{path.string()}, file(openForRead(path, ctx, parallel)) {
+      : ctx{path.string(), parallel}, file(openForRead(path, ctx, parallel)) {
     header = readHeaderFrom(ctx, file.get());
     indicator = openVolume(ctx, file.get(), "/indicator", header.lattice, true);
     if (header.hasMask) mask = openVolume(ctx, file.get(), "/mask", header.lattice, true);

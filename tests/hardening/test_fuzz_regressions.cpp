@@ -266,3 +266,42 @@ TEST(FuzzRegressions, MhaWithADataFilePatternIsRefusedInsteadOfSigfpe) {
       tmp, imageFromFinding(tmp.path(), "crash-c2512ebc75bf3cecc12a21eaf8d5f967b4f6c43e", 1,
                             "pattern.mha"));
 }
+
+// fuzz_bed_reader, heap over-reads in H5Dread: a chunk of /indicator stores (21 bytes, not
+// deflated) or inflates to (29 bytes) fewer bytes than the chunk holds (120 or 280), and
+// libhdf5 1.10.8 copies the whole chunk out of the short buffer (ASan: heap-buffer-overflow;
+// the release build read garbage and exited 0). voxpack now decodes each chunk itself and
+// demands its exact size.
+TEST(FuzzRegressions, DeflatedChunkShorterThanItsChunkIsRefused) {
+  for (const char* f : {"crash-13cd199e52abeec81ab0552d8c49a5f05e82538c",
+                        "crash-435e2fb209918e52556cc6efc13763128bce6a69",
+                        "crash-791ff9df55ebcc6d153ed30ee25cea9855880f72",
+                        "crash-8253f8f8fc5052c105d3be91fde9a38a998029db",
+                        "crash-a15436b2cf512a13bad1096856cb0ab7e3e63482"}) {
+    std::string message;
+    const std::string file = kFindings + "bed_reader/" + f;
+    EXPECT_EQ(boundedReadBed(file, message), ReadOutcome::FormatError) << f << ": " << message;
+    EXPECT_NE(message.find("chunk"), std::string::npos) << f << ": " << message;
+    EXPECT_NE(message.find(f), std::string::npos) << message;
+  }
+}
+
+// fuzz_bed_reader, over-reads, a use-after-free and SEGVs in H5Aexists: an attribute
+// message of the root group declares more data (element size x points) than the message
+// holds, and libhdf5 1.10.8's attribute decoder copies that much past the object header.
+// voxpack now parses the root's object header itself before any attribute call.
+TEST(FuzzRegressions, AttributeDataLargerThanItsMessageIsRefused) {
+  for (const char* f : {"crash-0f6d1a1b7ac58f0478d97d00a1c5ffabfb07553f",
+                        "crash-1153243a0bd5d2f6d2fe39c4da6bcedc089677df",
+                        "crash-1f3920290aa459031219ca2cea2b945ea62fd3b1",
+                        "crash-4bff16db7c91444ebda815d764285dd167d05d09",
+                        "crash-63fc5a55e11c733c942ef46f31acd11d0b083e33",
+                        "crash-96c5101c7c5f6ccafd2fdd310b5d26ce47c9eaeb",
+                        "crash-97c1e39324cf1c4b6e7789fa8b9e22e4fd242b2f"}) {
+    std::string message;
+    const std::string file = kFindings + "bed_reader/" + f;
+    EXPECT_EQ(boundedReadBed(file, message), ReadOutcome::FormatError) << f << ": " << message;
+    EXPECT_NE(message.find("root group: attribute message"), std::string::npos)
+        << f << ": " << message;
+  }
+}

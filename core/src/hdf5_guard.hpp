@@ -1,0 +1,29 @@
+// Checks that stand between a hostile bed file and libhdf5 1.10.8 (internal to voxpack_core).
+//
+// Two classes of memory errors inside libhdf5 were found by fuzzing (docs/reliability.md,
+// "Fuzzing"): a deflated chunk that inflates to fewer bytes than the chunk holds is copied
+// out of its short buffer by H5Dread, and an attribute message whose data is declared larger
+// than the message is copied past the end of the object header by every attribute call
+// (H5Aexists, H5Aopen). Neither is checked by that libhdf5, so voxpack checks them itself.
+#pragma once
+
+#include <hdf5.h>
+
+#include <string>
+
+namespace voxpack::hdf5guard {
+
+/// Parses the object header of `obj` from the file's bytes and throws FormatError("FILE: ...")
+/// when an attribute message's name, datatype, dataspace and data do not fit the message.
+void checkAttributeMessages(hid_t obj, const std::string& file, const std::string& what);
+
+/// Reads the hyperslab [start, start + count) of `ds` into `out` (C order, memType elements)
+/// by decoding every chunk here, each inflated to exactly its size. Returns false, reading
+/// nothing, when the dataset is not of the kind this handles (not chunked; a filter other
+/// than shuffle and deflate; a file type other than memType; `mpio`, a file opened through
+/// MPI-IO), so the caller falls back to H5Dread. Throws FormatError on a bad chunk.
+bool readChunksChecked(hid_t ds, hid_t memType, int rank, const hsize_t* start,
+                       const hsize_t* count, void* out, bool mpio, const std::string& file,
+                       const std::string& what);
+
+}  // namespace voxpack::hdf5guard
