@@ -63,7 +63,7 @@ class StatsCommand final : public Command {
     sub.add_option("--seed", o_.seed, "seed of the isotropic sampling")->capture_default_str();
     sub.add_option("--slab-voxels", slabPlanes_,
                    "stream in z-slabs this many voxels (planes) thick, whatever the memory "
-                   "(axial, radial, s2, orientation only; default: stream only past "
+                   "(axial, radial, s2, chords, orientation only; default: stream only past "
                    "--memory-limit)")
         ->check(CLI::PositiveNumber);
     sub.add_option("--packed-region", packedMode_,

@@ -93,6 +93,26 @@ std::int64_t Communicator::max(std::int64_t value) const {
   return value;
 }
 
+void Communicator::receiveFromPrevious(std::vector<std::uint64_t>& values) const {
+#ifdef VOXPACK_WITH_MPI
+  if (mpi_ && rank_ > 0)
+    MPI_Recv(values.data(), static_cast<int>(values.size()), MPI_UINT64_T, rank_ - 1, 0,
+             MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+#else
+  (void)values;
+#endif
+}
+
+void Communicator::sendToNext(const std::vector<std::uint64_t>& values) const {
+#ifdef VOXPACK_WITH_MPI
+  if (mpi_ && rank_ + 1 < size_)
+    MPI_Send(values.data(), static_cast<int>(values.size()), MPI_UINT64_T, rank_ + 1, 0,
+             MPI_COMM_WORLD);
+#else
+  (void)values;
+#endif
+}
+
 void Communicator::abort(int code) const {
 #ifdef VOXPACK_WITH_MPI
   if (mpi_) MPI_Abort(MPI_COMM_WORLD, code);

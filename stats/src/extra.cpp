@@ -73,6 +73,14 @@ void writePairs(const std::filesystem::path& path, const std::string& header, co
 
 }  // namespace
 
+json chordsJson(const ChordLengths& c) {
+  json j = lengthJson(c.all);
+  j["z"] = lengthJson(c.perAxis[0]);
+  j["y"] = lengthJson(c.perAxis[1]);
+  j["x"] = lengthJson(c.perAxis[2]);
+  return j;
+}
+
 void addExtraStatistics(json& out, const Bed& bed, const StatsOptions& options,
                         const std::set<std::string>& which, double diameterMm, Progress& progress) {
   auto want = [&](const char* n) { return which.count(n) != 0; };
@@ -119,12 +127,7 @@ void addExtraStatistics(json& out, const Bed& bed, const StatsOptions& options,
   }
   if (want("chords")) {
     progress.report("chord lengths", 0);
-    const ChordLengths c = chordLengths(bed, 0);
-    json j = lengthJson(c.all);
-    j["z"] = lengthJson(c.perAxis[0]);
-    j["y"] = lengthJson(c.perAxis[1]);
-    j["x"] = lengthJson(c.perAxis[2]);
-    out["chords"] = j;
+    out["chords"] = chordsJson(chordLengths(bed, 0));
   }
   if (want("shadow")) {
     progress.report("shadow images", 0);

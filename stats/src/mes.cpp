@@ -17,25 +17,30 @@ const std::vector<std::array<int, 3>>& latticeDirections() {
   return dirs;
 }
 
-LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm,
-                                    const std::vector<double>* weights) {
+namespace {
+
+// The moments, lognormal fit and histogram of values[n] taken count(n) times with weight
+// weight(n) each; count is 1 for a list, the multiplicity for a histogram.
+template <class Weight, class Count>
+LengthDistribution summarize(const std::vector<double>& values, double binWidthMm, Weight weightOf,
+                             Count countOf) {
   LengthDistribution d;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   d.binWidthMm = binWidthMm;
-  auto weightOf = [&](std::size_t n) { return weights ? (*weights)[n] : 1.0; };
   auto usable = [&](std::size_t n) {
     const double v = values[n];
-    return v > 0 && std::isfinite(v) && weightOf(n) > 0 && std::isfinite(weightOf(n));
+    return v > 0 && std::isfinite(v) && weightOf(n) > 0 && std::isfinite(weightOf(n)) &&
+           countOf(n) > 0;
   };
   double wsum = 0, sum = 0, maxV = 0, logSum = 0;
   for (std::size_t n = 0; n < values.size(); ++n) {
     if (!usable(n)) continue;
-    const double w = weightOf(n);
+    const double w = weightOf(n) * static_cast<double>(countOf(n));
     wsum += w;
     sum += w * values[n];
     logSum += w * std::log(values[n]);
     maxV = std::max(maxV, values[n]);
-    ++d.samples;
+    d.samples += countOf(n);
   }
   if (d.samples == 0 || !(binWidthMm > 0)) {
     d.samples = 0;
@@ -49,7 +54,7 @@ LengthDistribution summarizeLengths(const std::vector<double>& values, double bi
   std::vector<double> counts(bins, 0.0);
   for (std::size_t n = 0; n < values.size(); ++n) {
     if (!usable(n)) continue;
-    const double v = values[n], w = weightOf(n);
+    const double v = values[n], w = weightOf(n) * static_cast<double>(countOf(n));
     ss += w * (v - d.meanMm) * (v - d.meanMm);
     ls += w * (std::log(v) - d.lognormalMu) * (std::log(v) - d.lognormalMu);
     counts[std::min(bins - 1, static_cast<std::size_t>(std::floor(v / binWidthMm)))] += w;
@@ -63,6 +68,24 @@ LengthDistribution summarizeLengths(const std::vector<double>& values, double bi
     d.pdf[b] = counts[b] / (wsum * binWidthMm);
   }
   return d;
+}
+
+}  // namespace
+
+LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm,
+                                    const std::vector<double>* weights) {
+  return summarize(
+      values, binWidthMm, [&](std::size_t n) { return weights ? (*weights)[n] : 1.0; },
+      [](std::size_t) { return std::uint64_t{1}; });
+}
+
+LengthDistribution summarizeCountedLengths(const std::vector<double>& values,
+                                           const std::vector<double>& weights,
+                                           const std::vector<std::uint64_t>& counts,
+                                           double binWidthMm) {
+  return summarize(
+      values, binWidthMm, [&](std::size_t n) { return weights[n]; },
+      [&](std::size_t n) { return counts[n]; });
 }
 
 std::array<bool, 3> windowCutAxes(const Bed& bed) {

@@ -89,10 +89,16 @@ bool fitsWithHeadroom(const MemoryBudget& budget, std::uint64_t bytes) {
   return budget.fits(bytes + bytes / 32);
 }
 
+// ChordRuns: head and open run (2 x uint32) and a flag per column, the carry (uint64) per
+// column when the runs are joined, and the run-length counts along each axis.
+std::uint64_t chordStateBytes(const Dims& d) {
+  return 17 * u(d[1]) * u(d[2]) + 8 * (u(d[0]) + u(d[1]) + u(d[2]) + 3);
+}
+
 }  // namespace
 
 const std::set<std::string>& streamableStatistics() {
-  static const std::set<std::string> names{"axial", "radial", "s2", "orientation"};
+  static const std::set<std::string> names{"axial", "radial", "s2", "chords", "orientation"};
   return names;
 }
 
@@ -119,10 +125,10 @@ std::uint64_t estimateInMemoryBytes(const BedHeader& h, const StatsOptions& opti
   // Scratch per voxel of the other statistics, read off their code (docs/scale.md):
   // lattice mean empty space: float sums, counts, cut flags, six uint16 reach fields and the
   // float mean/weight fields; pore sizes: the source, two double distance fields and the
-  // void distances; chords: the chord lists.
+  // void distances; chords: the run state per column (chordStateBytes).
   if (want("mes")) work = std::max(work, (options.mesMethod == "isotropic" ? 12 : 26) * n);
   if (want("psd")) work = std::max(work, 21 * n);
-  if (want("chords")) work = std::max(work, 4 * n);
+  if (want("chords")) work = std::max(work, chordStateBytes(d));
   if (want("coordination") && h.hasLabels) work = std::max(work, 2 * n + 64 * h.particles);
   const std::uint64_t peak = roi ? std::max(bed + region, region + work) : bed + work;
   return kProcessBaseBytes + peak;
@@ -140,6 +146,7 @@ std::uint64_t estimateStreamedBytes(const BedHeader& h, const VoxelBox& region,
   const std::uint64_t plane = u(d[1]) * u(d[2]);
   std::uint64_t bytes = kProcessBaseBytes + particleTableBytes(h) + 16 * plane + 64 * u(d[0]);
   bytes += u(read) * plane * (1 + (h.hasMask ? 1 : 0)) + (h.hasMask ? plane : 0);
+  if (which.count("chords")) bytes += chordStateBytes(d);
   if (s2) {
     const Dims own = s2TileOwn(t, d[1], d[2], options.s2TileVoxels);
     bytes +=
@@ -260,7 +267,8 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     if (!streamableStatistics().count(s)) cannot += (cannot.empty() ? "" : ", ") + s;
   if (!cannot.empty())
     throw InputError("stats: " + cannot +
-                     " cannot be streamed in slabs (streamed: axial, radial, s2, orientation; "
+                     " cannot be streamed in slabs (streamed: axial, radial, s2, chords, "
+                     "orientation; "
                      "pass --only with those, or raise --memory-limit)");
   auto want = [&](const char* s) { return which.count(s) != 0; };
   NullProgress quiet;
@@ -369,15 +377,18 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   const AxialProfile axial = axialProfile(l, counts, ao);
   if (want("axial")) out["axial"] = axialJson(axial, trim);
 
-  // Pass 2: radial column counts over the own planes, S2 over the own planes plus the halo.
+  // Pass 2: radial column counts and chord runs over the own planes, S2 over the own planes
+  // plus the halo.
   std::int64_t halo = 0;
-  if (want("radial") || want("s2")) {
+  if (want("radial") || want("s2") || want("chords")) {
     const RadialOptions ro = radialOptions(options, axial, diameter);
     const std::int64_t nz = region.dims[0];
     const std::int64_t k0 = std::max<std::int64_t>(0, ro.firstSlice);
     const std::int64_t k1 = ro.lastSlice < 0 ? nz - 1 : std::min(nz - 1, ro.lastSlice);
     ColumnCounts cc(region.dims[1], region.dims[2]);
     std::optional<S2SlabAccumulator> acc;
+    std::optional<ChordRuns> chords;
+    if (want("chords")) chords.emplace(region.dims[0], region.dims[1], region.dims[2]);
     if (want("s2")) {
       acc.emplace(l, h.hasMask, prism, s2Options(options));
       if (prism) acc->setPrismSlice(*reader.mask(planes(region, 0, 1)));
@@ -395,6 +406,7 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
       const Grid<std::uint8_t>* m = mask ? &*mask : nullptr;
       accumulateColumnCounts(cc, z0, ind, m, std::max(k0, z0), std::min(k1, z1 - 1));
       if (acc) acc->addSlab(z0, z1, ind, m);
+      if (chords) chords->addPlanes(z0, ind, m, z1 - z0);
     }
     sp.step(slabs.last - slabs.first);
     comm.sum(cc.mask);
@@ -403,6 +415,16 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     comm.sum(withMask);
     cc.slicesWithMask = withMask[0];
     if (want("radial")) out["radial"] = radialJson(radialProfile(l, h.hasMask, cc, ro), diameter);
+    if (chords) {
+      // The z runs that cross rank boundaries are joined in rank order (the carry of rank
+      // r - 1 meets rank r's first planes); all other counts are sums.
+      std::vector<std::uint64_t> carry(comm.rank() > 0 ? cc.mask.size() : 0);
+      comm.receiveFromPrevious(carry);
+      comm.sendToNext(chords->joinCarry(carry));
+      for (auto& c : chords->counts()) comm.sum(c);
+      comm.sum(chords->windowCut());
+      out["chords"] = chordsJson(chordLengths(*chords, l, 0));
+    }
     if (acc) {
       comm.sum(acc->numerator());
       comm.sum(acc->pairCounts());

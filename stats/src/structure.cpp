@@ -123,49 +123,6 @@ PoreSizeDistribution poreSizeDistribution(const Bed& bed, double binWidthMm, int
   return p;
 }
 
-ChordLengths chordLengths(const Bed& bed, double binWidthMm) {
-  const Lattice& l = bed.lattice();
-  const std::int64_t n[3] = {l.nz(), l.ny(), l.nx()};
-  const std::int64_t stride[3] = {n[1] * n[2], n[2], 1};
-  std::vector<double> all, allWeights;
-  ChordLengths c;
-  const std::array<bool, 3> cutAxes = windowCutAxes(bed);
-  const double width =
-      binWidthMm > 0 ? binWidthMm : std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
-  for (int a = 0; a < 3; ++a) {
-    const int u = (a + 1) % 3, w = (a + 2) % 3;
-    std::vector<double> chords, weights;
-    // Along an axis the window cuts, a chord of ℓ voxels is seen whole in n − ℓ − 1 of the
-    // line's positions: weight 1/(n − ℓ − 1) (minus sampling), normalised to 1 at ℓ = 0.
-    const bool weighted = cutAxes[static_cast<std::size_t>(a)];
-    for (std::int64_t iu = 0; iu < n[u]; ++iu)
-      for (std::int64_t iw = 0; iw < n[w]; ++iw) {
-        const std::int64_t base = iu * stride[u] + iw * stride[w];
-        std::int64_t run = 0;
-        bool cut = true;  // a run touching the first voxel starts at the window
-        for (std::int64_t t = 0; t < n[a]; ++t) {
-          if (voidAt(bed, static_cast<std::size_t>(base + t * stride[a]))) {
-            if (run == 0) cut = (t == 0);
-            ++run;
-          } else {
-            if (run > 0 && !cut) {
-              chords.push_back(static_cast<double>(run) * l.spacingMm[a]);
-              weights.push_back(weighted ? static_cast<double>(n[a] - 1) /
-                                               std::max(1.0, static_cast<double>(n[a] - run - 1))
-                                         : 1.0);
-            }
-            run = 0;
-          }
-        }
-      }
-    c.perAxis[static_cast<std::size_t>(a)] = summarizeLengths(chords, width, &weights);
-    all.insert(all.end(), chords.begin(), chords.end());
-    allWeights.insert(allWeights.end(), weights.begin(), weights.end());
-  }
-  c.all = summarizeLengths(all, width, &allWeights);
-  return c;
-}
-
 ShadowImage shadowImage(const Bed& bed, int axis) {
   if (axis < 0 || axis > 2) throw InputError("shadow image: axis must be 0, 1 or 2");
   const Lattice& l = bed.lattice();

@@ -11,12 +11,16 @@
 #include "voxpack/stats/profiles.hpp"
 #include "voxpack/stats/s2.hpp"
 #include "voxpack/stats/stats.hpp"
+#include "voxpack/stats/structure.hpp"
 
 namespace voxpack::stats {
 
 /// Adds mes, psd, chords, shadow, coordination, orientation to `out` when in `which`.
 void addExtraStatistics(nlohmann::json& out, const Bed& bed, const StatsOptions& options,
                         const std::set<std::string>& which, double diameterMm, Progress& progress);
+
+/// The "chords" object.
+nlohmann::json chordsJson(const ChordLengths& chords);
 
 /// Writes the CSV files of the statistics addExtraStatistics adds.
 void writeExtraCsv(const nlohmann::json& stats, const std::filesystem::path& dir,

@@ -38,7 +38,7 @@ TEST(Mpi, StatsEqualForOneTwoThreeRanks) {
   const auto f = (tmp / "bed.h5").string();
   writeBed(f, sphereColumn(o));
   const std::string args = " --quiet --threads 1 stats " + shellQuote(f) +
-                           " --only axial,radial,s2,orientation --slab-voxels 3 -o ";
+                           " --only axial,radial,s2,chords,orientation --slab-voxels 3 -o ";
   const auto serial = (tmp / "serial.json").string();
   ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + args + shellQuote(serial)), 0);
   const json ref = values(readJsonFile(serial));

@@ -63,7 +63,7 @@ void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2
   const auto f = tmp / "bed.h5";
   writeBed(f, bed);
   stats::StatsOptions o;
-  o.only = {"axial", "radial", "s2", "orientation"};
+  o.only = {"axial", "radial", "s2", "chords", "orientation"};
   o.s2MaxLagMm = s2LagMm;
   const json a = inMemory(readBed(f), o);
   o.s2TileVoxels = tile;
@@ -82,6 +82,9 @@ void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2
   EXPECT_EQ(a["axial"], b["axial"]);
   EXPECT_EQ(a["radial"], b["radial"]);
   EXPECT_EQ(a["orientation"], b["orientation"]);
+  // Chords along z cross the slabs; the run counts, and so the whole object, are exact.
+  EXPECT_EQ(a["chords"], b["chords"]);
+  EXPECT_GT(a["chords"]["z"]["samples"].get<std::int64_t>(), 0);
   // Pair counts exact, S2 to 1e-12 relative.
   for (const char* curve : {"axial", "transverse"}) {
     EXPECT_EQ(a["s2"][curve]["pairs"], b["s2"][curve]["pairs"]) << curve;
@@ -291,7 +294,7 @@ TEST(StreamedStats, CliSlabVoxelsEqualsInMemory) {
   const auto f = (tmp / "bed.h5").string();
   writeBed(f, bed);
   const auto a = (tmp / "a.json").string(), b = (tmp / "b.json").string();
-  const std::vector<std::string> common{"--quiet", "stats", f, "--only", "axial,radial,s2"};
+  const std::vector<std::string> common{"--quiet", "stats", f, "--only", "axial,radial,s2,chords"};
   auto args = common;
   args.insert(args.end(), {"-o", a});
   ASSERT_EQ(runVoxpack(args).exitCode, 0);
@@ -306,6 +309,7 @@ TEST(StreamedStats, CliSlabVoxelsEqualsInMemory) {
   EXPECT_EQ(ja["radial"], jb["radial"]);
   EXPECT_EQ(ja["s2"]["pairs"], jb["s2"]["pairs"]);
   expectClose(ja["s2"]["s2"], jb["s2"]["s2"], "cli s2");
+  EXPECT_EQ(ja["chords"], jb["chords"]);
   // A statistic without a streamed path is a usage error with --slab-voxels.
   const CliResult bad = runVoxpack({"stats", f, "--only", "mes", "--slab-voxels", "3", "-o", b});
   EXPECT_EQ(bad.exitCode, 2);

@@ -4,6 +4,8 @@
 #include <cmath>
 
 #include "stats_fixtures.hpp"
+#include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/random.hpp"
 #include "voxpack/stats/mes.hpp"
 #include "voxpack/stats/structure.hpp"
 
@@ -140,6 +142,105 @@ TEST(Chords, SlabsGiveExactChords) {
   EXPECT_NEAR(c.perAxis[0].meanMm, 2.5, 1e-12);
   EXPECT_EQ(c.perAxis[0].samples, 5u * 16u);
   EXPECT_EQ(c.perAxis[2].samples, 0u);  // x and y runs are all cut by the window
+}
+
+// The run counts give the distribution of the list of every chord (the definition: void
+// runs bounded on both ends, weighted 1/(n - l - 1) along axes the window cuts), on a
+// random masked anisotropic bed whose void touches the box faces.
+TEST(Chords, RunCountsMatchAListOfEveryChord) {
+  Lattice l = Lattice::isotropic(9, 11, 13, 0.5);
+  l.spacingMm = {0.3, 0.5, 0.4};
+  Bed bed = test::bedOf(Grid<std::uint8_t>(l, 1));
+  bed.mask = Grid<std::uint8_t>(l, 1);
+  RandomStream rng(3);
+  for (std::size_t n = 0; n < bed.indicator.size(); ++n) {
+    bed.indicator[n] = rng.uniform(0, 1) < 0.3 ? 0 : 1;
+    (*bed.mask)[n] = rng.uniform(0, 1) < 0.95 ? 1 : 0;
+  }
+  const std::int64_t n[3] = {l.nz(), l.ny(), l.nx()};
+  std::vector<double> all, allW;
+  const ChordLengths c = chordLengths(bed, 0);
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> list, w;
+    const int u = (a + 1) % 3, v = (a + 2) % 3;
+    for (std::int64_t iu = 0; iu < n[u]; ++iu)
+      for (std::int64_t iv = 0; iv < n[v]; ++iv) {
+        std::int64_t run = 0, start = 0;
+        for (std::int64_t t = 0; t <= n[a]; ++t) {
+          std::int64_t idx[3];
+          idx[a] = t;
+          idx[u] = iu;
+          idx[v] = iv;
+          const bool isVoid = t < n[a] && bed.indicator(idx[0], idx[1], idx[2]) &&
+                              (*bed.mask)(idx[0], idx[1], idx[2]);
+          if (isVoid) {
+            if (run++ == 0) start = t;
+            continue;
+          }
+          if (run > 0 && start > 0 && t < n[a]) {
+            list.push_back(static_cast<double>(run) * l.spacingMm[static_cast<std::size_t>(a)]);
+            w.push_back(static_cast<double>(n[a] - 1) / std::max(1.0, double(n[a] - run - 1)));
+          }
+          run = 0;
+        }
+      }
+    const LengthDistribution ref = summarizeLengths(list, 0.3, &w);
+    const LengthDistribution& got = c.perAxis[static_cast<std::size_t>(a)];
+    ASSERT_GT(ref.samples, 10u) << a;
+    EXPECT_EQ(got.samples, ref.samples) << a;
+    EXPECT_NEAR(got.meanMm, ref.meanMm, 1e-12 * ref.meanMm) << a;
+    EXPECT_NEAR(got.stdMm, ref.stdMm, 1e-12 * ref.stdMm) << a;
+    ASSERT_EQ(got.pdf.size(), ref.pdf.size()) << a;
+    for (std::size_t b = 0; b < ref.pdf.size(); ++b)
+      EXPECT_NEAR(got.pdf[b], ref.pdf[b], 1e-12 * (1 + ref.pdf[b])) << a << " bin " << b;
+    all.insert(all.end(), list.begin(), list.end());
+    allW.insert(allW.end(), w.begin(), w.end());
+  }
+  const LengthDistribution ref = summarizeLengths(all, 0.3, &allW);
+  EXPECT_EQ(c.all.samples, ref.samples);
+  EXPECT_NEAR(c.all.meanMm, ref.meanMm, 1e-12 * ref.meanMm);
+}
+
+// The planes split over "ranks" (one of them empty) and joined by the carry in order give
+// exactly the run counts of the whole bed: runs along z crossing every boundary included.
+TEST(Chords, PlanesSplitOverRanksJoinToTheWholeBed) {
+  const Lattice l = Lattice::isotropic(12, 5, 6, 0.5);
+  Bed bed = test::bedOf(Grid<std::uint8_t>(l, 1));
+  RandomStream rng(8);
+  for (std::size_t n = 0; n < bed.indicator.size(); ++n)
+    bed.indicator[n] = rng.uniform(0, 1) < 0.15 ? 0 : 1;
+  ChordRuns whole(12, 5, 6);
+  whole.addPlanes(0, bed.indicator, nullptr, 12);
+  whole.joinCarry({});
+  std::array<std::vector<std::uint64_t>, 3> sum;
+  std::vector<std::uint64_t> carry, cut(3, 0);
+  const std::int64_t bounds[] = {0, 1, 1, 7, 8, 12};  // ranks of 1, 0, 6, 1 and 4 planes
+  for (int r = 0; r + 1 < 6; ++r) {
+    const std::int64_t z0 = bounds[r], z1 = bounds[r + 1];
+    ChordRuns part(12, 5, 6);
+    for (std::int64_t z = z0; z < z1; ++z) {  // one plane at a time, as thin slabs
+      Grid<std::uint8_t> plane(subLattice(l, VoxelBox{{z, 0, 0}, {1, 5, 6}}), 0);
+      for (std::int64_t j = 0; j < 5; ++j)
+        for (std::int64_t i = 0; i < 6; ++i) plane(0, j, i) = bed.indicator(z, j, i);
+      part.addPlanes(z, plane, nullptr, 1);
+    }
+    carry = part.joinCarry(r == 0 ? std::vector<std::uint64_t>{} : carry);
+    for (int a = 0; a < 3; ++a) {
+      auto& s = sum[static_cast<std::size_t>(a)];
+      const auto& c = part.counts()[static_cast<std::size_t>(a)];
+      s.resize(c.size(), 0);
+      for (std::size_t k = 0; k < c.size(); ++k) s[k] += c[k];
+      cut[static_cast<std::size_t>(a)] += part.windowCut()[static_cast<std::size_t>(a)];
+    }
+  }
+  for (int a = 0; a < 3; ++a)
+    EXPECT_EQ(sum[static_cast<std::size_t>(a)], whole.counts()[static_cast<std::size_t>(a)]) << a;
+  std::uint64_t zChords = 0;
+  for (auto v : whole.counts()[0]) zChords += v;
+  EXPECT_GT(zChords, 10u);
+  for (int a = 0; a < 3; ++a)
+    EXPECT_EQ(cut[static_cast<std::size_t>(a)] > 0,
+              whole.windowCut()[static_cast<std::size_t>(a)] > 0);
 }
 
 TEST(Shadow, ProjectionsAndCoordination) {

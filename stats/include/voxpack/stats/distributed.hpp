@@ -1,8 +1,9 @@
 #pragma once
 /// \file distributed.hpp
 /// The ranks a streamed statistic is spread over: MPI_COMM_WORLD in an MPI build started
-/// by mpirun, else one process. Only sums of integer counts are reduced, so the result is
-/// the same for any number of ranks (docs/scale.md).
+/// by mpirun, else one process. Only sums of integer counts are reduced (and a carry of
+/// integers passed from rank to rank), so the result is the same for any number of ranks
+/// (docs/scale.md).
 
 #include <cstdint>
 #include <vector>
@@ -27,6 +28,11 @@ class Communicator {
   bool allTrue(bool value) const;
   /// Largest value over ranks.
   std::int64_t max(std::int64_t value) const;
+  /// Fills `values` (its size is the count) from rank − 1; rank 0 leaves it as it is.
+  /// With sendToNext, passes a carry along the ranks in order (chord runs along z).
+  void receiveFromPrevious(std::vector<std::uint64_t>& values) const;
+  /// Sends `values` to rank + 1; the last rank sends nothing.
+  void sendToNext(const std::vector<std::uint64_t>& values) const;
   /// Ends every rank with `code` after one rank failed (no rank is left waiting).
   [[noreturn]] void abort(int code) const;
 

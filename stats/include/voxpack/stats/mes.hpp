@@ -35,6 +35,13 @@ struct LengthDistribution {
 LengthDistribution summarizeLengths(const std::vector<double>& values, double binWidthMm,
                                     const std::vector<double>* weights = nullptr);
 
+/// As summarizeLengths for a histogram: `values[n]` occurs `counts[n]` times, each with
+/// weight `weights[n]`; `samples` is the sum of the counts.
+LengthDistribution summarizeCountedLengths(const std::vector<double>& values,
+                                           const std::vector<double>& weights,
+                                           const std::vector<std::uint64_t>& counts,
+                                           double binWidthMm);
+
 /// Axes (z, y, x) along which the lattice boundary cuts void-in-mask voxels (a void voxel on
 /// one of the two faces normal to the axis): chords can be cut there.
 std::array<bool, 3> windowCutAxes(const Bed& bed);

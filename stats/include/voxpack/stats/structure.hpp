@@ -41,6 +41,40 @@ struct ChordLengths {
 /// Chord lengths of `bed`.
 ChordLengths chordLengths(const Bed& bed, double binWidthMm);
 
+/// Void chords along z, y and x as exact counts of run lengths, added plane by plane in z
+/// order: the whole bed, or the z-slabs of a stream or of one MPI rank. Runs along z that
+/// continue past the planes added are joined to the neighbouring planes' by a carry word
+/// per column, so slabs and ranks give exactly the whole bed's counts. As in chordLengths,
+/// a run touching the first or last voxel of its line is cut by the window and not counted.
+class ChordRuns {
+ public:
+  /// For a region (the whole bed, or its ROI) of nz x ny x nx voxels.
+  ChordRuns(std::int64_t nz, std::int64_t ny, std::int64_t nx);
+  /// Adds the first `planes` planes of `indicator` (and `mask`, null: all inside), which are
+  /// planes z0.. of the region; planes must come in order without gaps.
+  void addPlanes(std::int64_t z0, const Grid<std::uint8_t>& indicator,
+                 const Grid<std::uint8_t>* mask, std::int64_t planes);
+  /// Joins the z runs that reach the first plane added to `carry` (the previous planes'
+  /// word per column; empty: the region starts here) and returns the carry that the next
+  /// planes (the next rank) start from. Called once, after the last addPlanes.
+  std::vector<std::uint64_t> joinCarry(const std::vector<std::uint64_t>& carry);
+  /// counts()[a][l]: whole chords of l voxels along axis a (0 z, 1 y, 2 x).
+  std::array<std::vector<std::uint64_t>, 3>& counts() { return counts_; }
+  /// Whether a void voxel lies on the region's faces normal to each axis (0/1 per axis).
+  std::vector<std::uint64_t>& windowCut() { return windowCut_; }
+
+ private:
+  std::int64_t n_[3];
+  std::int64_t planesAdded_ = 0;
+  std::vector<std::uint32_t> head_, run_;  // per column: the run from the first plane, the open run
+  std::vector<std::uint8_t> sawSolid_;     // per column: a non-void voxel seen
+  std::array<std::vector<std::uint64_t>, 3> counts_;
+  std::vector<std::uint64_t> windowCut_;
+};
+
+/// Chord lengths from the counts of `runs` (summed over slabs and ranks) on `lattice`.
+ChordLengths chordLengths(ChordRuns& runs, const Lattice& lattice, double binWidthMm);
+
 /// Mean projection of the solid fraction along one axis (paper Fig. 7 shadow images).
 struct ShadowImage {
   std::int64_t rows = 0, cols = 0;  ///< image size
