@@ -9,6 +9,7 @@
 #include "command.hpp"
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/bed_file.hpp"
+#include "voxpack/core/communicator.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/memory.hpp"
 #include "voxpack/core/parallel.hpp"
@@ -115,6 +116,19 @@ class IngestCommand final : public Command {
   }
 
   int execute(const GlobalOptions& global) override {
+    const Communicator& comm = Communicator::world();
+    if (comm.size() <= 1) return run(global, comm);
+    // Under mpirun: one failing rank must not leave the others waiting for its slabs.
+    try {
+      return run(global, comm);
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << '\n';
+      comm.abort(dynamic_cast<const InputError*>(&e) || dynamic_cast<const IoError*>(&e) ? 2 : 1);
+    }
+  }
+
+ private:
+  int run(const GlobalOptions& global, const Communicator& comm) {
     o_.voidPolarity = void_ == "bright" ? VoidPolarity::Bright
                       : void_ == "dark" ? VoidPolarity::Dark
                                         : VoidPolarity::Auto;
@@ -180,8 +194,18 @@ class IngestCommand final : public Command {
     } catch (const Error&) {
       // Not read here: the in-memory reader below reports the problem as it always has.
     }
+    if (comm.size() > 1) {
+      // Under mpirun the ranks share the streamed path's slabs; the in-memory pipeline
+      // would run whole on every rank.
+      if (!header) header = readVolumeHeader(input_, o_.read);
+      NullProgress quiet;
+      int rc = 0;
+      maybeStream(*header, global, comm.rank() == 0 ? static_cast<Progress&>(progress) : quiet, rc,
+                  comm);
+      return rc;
+    }
     if (header)
-      if (int rc = 0; maybeStream(*header, global, progress, rc)) return rc;
+      if (int rc = 0; maybeStream(*header, global, progress, rc, comm)) return rc;
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
     progress.poll("ingest: before writing " + output_);
@@ -215,8 +239,9 @@ class IngestCommand final : public Command {
  private:
   // Runs the streamed path when the in-memory one does not fit (or --slab-voxels asks);
   // false: run in memory. Throws ResourceError when neither fits.
-  bool maybeStream(const VolumeHeader& h, const GlobalOptions& global, Progress& progress,
-                   int& rc) {
+  bool maybeStream(const VolumeHeader& h, const GlobalOptions& global, Progress& progress, int& rc,
+                   const Communicator& comm) {
+    const bool ranks = comm.size() > 1;
     const Lattice& l = h.lattice;
     const std::string what = "ingest of " + input_ + " (" + std::to_string(l.dims[0]) + " x " +
                              std::to_string(l.dims[1]) + " x " + std::to_string(l.dims[2]) +
@@ -226,27 +251,37 @@ class IngestCommand final : public Command {
                    what);
     const std::uint64_t inMemory = estimateIngestPeakBytes(l, o_);
     const bool fits = global.memory.fits(inMemory);
-    if (fits && slabPlanes_ == 0) return false;
+    if (fits && slabPlanes_ == 0 && !ranks) return false;
     const std::string why = streamedIngestUnsupported(o_, h);
+    if (!why.empty() && ranks)
+      throw UsageError("ingest under mpirun runs the streamed path, which has none for " + why);
     if (!why.empty()) {
       if (slabPlanes_ > 0 && fits) throw UsageError("--slab-voxels: no streamed ingest for " + why);
       requireWithinBudget(inMemory, global.memory,
                           what + " in memory (no streamed path for " + why + ")");
     }
-    const std::int64_t planes = streamedSlabPlanes(h, o_, global.memory, slabPlanes_);
+    std::int64_t planes = streamedSlabPlanes(h, o_, global.memory, slabPlanes_);
+    // Under mpirun without --slab-voxels, at least two slabs per rank, so every rank works
+    // (a volume that fits the budget would otherwise be one slab); the provenance records
+    // the slab thickness, and one process with that --slab-voxels writes the same bed.
+    if (ranks && slabPlanes_ == 0)
+      planes = std::min(
+          planes, std::max<std::int64_t>(1, (l.nz() + 2 * comm.size() - 1) / (2 * comm.size())));
     requireWithinBudget(
         estimateStreamedIngestBytes(h, o_, std::max<std::int64_t>(planes, 1)), global.memory,
         what + " streamed in slabs of " + std::to_string(std::max<std::int64_t>(planes, 1)) +
             " planes (+ " + std::to_string(streamedHaloPlanes(o_, l.nz())) +
             " halo planes each side)");
-    if (!global.quiet)
+    if (!global.quiet && comm.rank() == 0)
       progress.message("streaming: in memory would need about " + formatBytes(inMemory) +
                        "; slabs of " + std::to_string(planes) + " planes, about " +
-                       formatBytes(estimateStreamedIngestBytes(h, o_, planes)));
+                       formatBytes(estimateStreamedIngestBytes(h, o_, planes)) +
+                       (ranks ? " per rank, over " + std::to_string(comm.size()) + " ranks" : ""));
     const StreamedIngestResult r =
         ingestVolumeStreamed(h, o_, output_, planes, resolveThreads(global.threads), progress,
-                             {{"command_line", global.commandLine}});
+                             {{"command_line", global.commandLine}}, &comm);
     rc = 0;
+    if (comm.rank() != 0) return true;  // rank 0 wrote the bed and reports
     if (json_) {
       std::cout << r.report.dump(2) << '\n';
       return true;

@@ -218,7 +218,8 @@ std::int64_t streamedSlabPlanes(const VolumeHeader& h, const IngestOptions& o,
 StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOptions& o,
                                           const std::filesystem::path& output,
                                           std::int64_t slabPlanes, int threads, Progress& progress,
-                                          const nlohmann::json& extraProvenance) {
+                                          const nlohmann::json& extraProvenance,
+                                          const Communicator* comm) {
   const std::string why = streamedIngestUnsupported(o, h);
   if (!why.empty()) throw UsageError("no streamed ingest for " + why);
   if (o.maxSpeckVoxels > (std::size_t{1} << 40) || o.maxHoleVoxels > (std::size_t{1} << 40))
@@ -229,6 +230,10 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   const std::int64_t T = std::clamp<std::int64_t>(slabPlanes, 1, nz);
   const std::int64_t slabs = (nz + T - 1) / T;
   nlohmann::json timing = nlohmann::json::object();
+  // Slab s belongs to rank s mod P: round robin keeps every rank busy while rank 0 takes
+  // the slabs in order (a contiguous block per rank would make rank r wait for 0..r-1).
+  const int P = comm ? comm->size() : 1, me = comm ? comm->rank() : 0;
+  auto mine = [&](std::int64_t s) { return s % P == me; };
 
   // Polarity: as segmentVolume.
   bool voidBright = false;
@@ -272,6 +277,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     bool overflow = false;
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
     for (std::int64_t s = 0; s < slabs; ++s) {
+      if (!mine(s)) continue;
       checkCancel(progress);
       progress.report("ingest: threshold histogram (pass 1, " + std::to_string(slabs) + " slabs)",
                       static_cast<double>(s) / static_cast<double>(slabs));
@@ -291,6 +297,17 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
         }
       }
     }
+    if (P > 1) {
+      // The integer grey values are summed over the ranks; other values are not gathered:
+      // any of them on any rank sends Otsu to its bins pass (below), which sums.
+      comm->sum(small);
+      lo = static_cast<float>(comm->min(static_cast<double>(lo)));
+      hi = static_cast<float>(comm->max(static_cast<double>(hi)));
+      if (!comm->allTrue(counts.empty() && !overflow)) {
+        overflow = true;
+        counts = {};
+      }
+    }
     std::vector<std::pair<float, std::uint64_t>> sorted(counts.begin(), counts.end());
     counts = {};
     for (std::size_t v = 0; v < small.size(); ++v)
@@ -307,15 +324,19 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       if (o.threshold == ThresholdMethod::KMeans)
         throw ResourceError("--threshold kmeans on a streamed image with more than " +
                             std::to_string(kMaxDistinctValues) +
-                            " distinct grey values is not supported; use --threshold otsu");
+                            (P > 1 ? " distinct grey values, or under mpirun any non-integer one,"
+                                   : " distinct grey values") +
+                            " is not supported; use --threshold otsu");
       // Otsu needs only its bins over [lo, hi]: one more pass fills them.
       ++passes;
       for (std::int64_t s = 0; s < slabs && hi > lo; ++s) {
+        if (!mine(s)) continue;
         checkCancel(progress);
         const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
         const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
         for (float v : img.values()) bins[otsuBin(v, lo, scale, kBins)] += 1.0;
       }
+      if (P > 1) comm->sum(bins);  // integer-valued counts: exact in any order
     }
     tOtsu = otsuFromBins(bins, lo, hi, lat.size());
     t = o.threshold == ThresholdMethod::Otsu ? tOtsu : kmeansFromCounts(sorted, lo, hi);
@@ -328,7 +349,8 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   const std::int64_t hs = cleanupHalo(o.maxSpeckVoxels, nz), hh = cleanupHalo(o.maxHoleVoxels, nz);
   const double voxel = lat.spacingMm[2];
   const double margin = (3.0 * 1.0 + 2.0) * voxel;  // segmentVolume's core margin, no blur fit
-  BedSlabWriter writer(output, lat, column.found, false);
+  std::optional<BedSlabWriter> writer;
+  if (me == 0) writer.emplace(output, lat, column.found, false);
   BedSummary summary;
   std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0;
   ChordSums chordsCore, chordsAll;
@@ -339,18 +361,35 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
                         std::to_string(slabs) + " slabs)",
                     static_cast<double>(s) / static_cast<double>(slabs));
     const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
-    const std::int64_t a = std::max<std::int64_t>(0, z0 - hs - hh), b = std::min(nz, z1 + hs + hh);
-    Grid<std::uint8_t> ind;
-    {
-      const Grid<float> img = denoisedPlanes(h, o, a, b, threads);
-      ind = applyThreshold(img, t, voidBright);
-    }
-    specks += removeSmallComponentsCounted(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
-    const std::int64_t a2 = std::max<std::int64_t>(0, z0 - hh), b2 = std::min(nz, z1 + hh);
-    ind = cropPlanes(ind, a2 - a, b2 - a);
-    holes += removeSmallComponentsCounted(ind, 1, o.maxHoleVoxels, z0 - a2, z1 - a2);
-    ind = cropPlanes(ind, z0 - a2, z1 - a2);
     const Lattice sub = subLattice(lat, {{z0, 0, 0}, {z1 - z0, lat.ny(), lat.nx()}});
+    Grid<std::uint8_t> ind;
+    std::uint64_t cleaned[2] = {0, 0};  // specks removed, holes filled in this slab
+    if (mine(s)) {
+      const std::int64_t a = std::max<std::int64_t>(0, z0 - hs - hh),
+                         b = std::min(nz, z1 + hs + hh);
+      {
+        const Grid<float> img = denoisedPlanes(h, o, a, b, threads);
+        ind = applyThreshold(img, t, voidBright);
+      }
+      cleaned[0] = removeSmallComponentsCounted(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
+      const std::int64_t a2 = std::max<std::int64_t>(0, z0 - hh), b2 = std::min(nz, z1 + hh);
+      ind = cropPlanes(ind, a2 - a, b2 - a);
+      cleaned[1] = removeSmallComponentsCounted(ind, 1, o.maxHoleVoxels, z0 - a2, z1 - a2);
+      ind = cropPlanes(ind, z0 - a2, z1 - a2);
+      if (me != 0) {  // to rank 0, which writes every slab in order
+        comm->sendBytes(0, cleaned, sizeof cleaned);
+        comm->sendBytes(0, ind.data(), ind.size());
+        continue;
+      }
+    } else if (me == 0) {
+      ind = Grid<std::uint8_t>(sub, 0);
+      comm->receiveBytes(static_cast<int>(s % P), cleaned, sizeof cleaned);
+      comm->receiveBytes(static_cast<int>(s % P), ind.data(), ind.size());
+    } else {
+      continue;
+    }
+    specks += cleaned[0];
+    holes += cleaned[1];
     std::optional<Grid<std::uint8_t>> mask, core;
     if (column.found) {
       mask = columnMask(sub, column);
@@ -370,8 +409,16 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       chordsCore.addInPlane(ind, &*core);
       chordsCore.addAlongZ(ind, &*core);
     }
-    writer.writeIndicator(z0, ind);
-    if (mask) writer.writeMask(z0, *mask);
+    writer->writeIndicator(z0, ind);
+    if (mask) writer->writeMask(z0, *mask);
+  }
+  if (me != 0) {  // the other ranks are done: rank 0 reports and writes
+    StreamedIngestResult r;
+    r.lattice = lat;
+    r.thresholdUsed = t;
+    r.voidBright = voidBright;
+    r.column = column;
+    return r;
   }
   finishSummary(summary);
   timing["segment_s"] = seconds(t0);
@@ -452,6 +499,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       {"slabs", slabs},
       {"halo_planes", streamedHaloPlanes(o, nz)},
       {"passes", passes},
+      {"ranks", P},
       {"memory_estimate_bytes", estimateStreamedIngestBytes(h, o, T)},
       {"note",
        "read by z-slab; the denoise and speck/hole clean-up use a halo that makes every "
@@ -462,7 +510,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   if (extraProvenance.is_object())
     for (const auto& [k, v] : extraProvenance.items()) prov[k] = v;
   checkCancel(progress);
-  writer.finish(ParticleTable{}, prov);
+  writer->finish(ParticleTable{}, prov);
 
   StreamedIngestResult r;
   r.lattice = lat;

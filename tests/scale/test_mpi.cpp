@@ -75,3 +75,61 @@ TEST(Mpi, OneFailingRankEndsTheRunWithExit2) {
   EXPECT_NE(rc, 0);
   EXPECT_FALSE(std::filesystem::exists(tmp / "x.json"));
 }
+
+// mpirun -np 2 and 3 ingest gives the bed of one process: the same indicator and mask, and
+// the same provenance but for the timing and the rank count. The slabs go round the ranks
+// and rank 0 writes them in order. uint8 grey values are summed as exact counts; float32
+// ones send Otsu through its bins pass, also summed.
+TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
+  TempDir tmp;
+  ColumnBed o;
+  o.nz = 30;
+  const auto bed = (tmp / "bed.h5").string();
+  writeBed(bed, sphereColumn(o));
+  for (const std::string pixel : {"uint8", "float32"}) {
+    // phantom writes gzip data; the streamed reader needs raw, so it is unpacked here.
+    const auto grey = (tmp / (pixel + ".nhdr")).string();
+    ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + " --quiet phantom " + shellQuote(bed) + " -o " +
+                       shellQuote(grey) +
+                       " --modality xmt --snr 8 --blur-mm 0.2 --seed 3 --pixel-type " + pixel),
+              0);
+    ASSERT_EQ(runShell("gunzip -f " + shellQuote((tmp / (pixel + ".raw.gz")).string()) +
+                       " && sed -i 's/^encoding: gzip/encoding: raw/; "
+                       "s/^data file: \\(.*\\)\\.gz$/data file: \\1/' " +
+                       shellQuote(grey)),
+              0);
+    const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
+                             " --threshold otsu --column 2.7,2.9,2.4 --slab-voxels 3 -o ";
+    const auto serial = (tmp / (pixel + "_serial.h5")).string();
+    ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + args + shellQuote(serial)), 0) << pixel;
+    const Bed ref = readBed(serial);
+    // Not compared: the output path, the timing, the ranks, and the passes (a float image
+    // under mpirun takes Otsu's bins pass, which one process skips; same threshold).
+    auto provenance = [](json p) {
+      p.erase("command_line");
+      p["ingest"].erase("timing_s");
+      p["ingest"]["streamed"].erase("ranks");
+      p["ingest"]["streamed"].erase("passes");
+      return p;
+    };
+    for (int n : {2, 3}) {
+      const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();
+      ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0)
+          << pixel << ", " << n << " ranks";
+      const Bed b = readBed(out);
+      EXPECT_EQ(b.provenance["ingest"]["streamed"]["ranks"], n);
+      EXPECT_EQ(b.provenance["ingest"]["streamed"]["slabs"], 10);
+      EXPECT_EQ(b.indicator.values(), ref.indicator.values()) << pixel << ", " << n << " ranks";
+      ASSERT_TRUE(b.mask && ref.mask);
+      EXPECT_EQ(b.mask->values(), ref.mask->values());
+      EXPECT_EQ(provenance(b.provenance), provenance(ref.provenance)) << pixel << ", " << n;
+    }
+  }
+  // What has no streamed path (here --column auto, a fit over the whole image) is refused
+  // under mpirun with exit 2, and no bed appears.
+  const auto none = (tmp / "none.h5").string();
+  EXPECT_EQ(runShell(mpirun(2) + " --quiet ingest " + shellQuote((tmp / "uint8.nhdr").string()) +
+                     " --column auto -o " + shellQuote(none) + " </dev/null 2>/dev/null"),
+            2);
+  EXPECT_FALSE(std::filesystem::exists(none));
+}

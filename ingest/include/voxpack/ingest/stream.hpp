@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "voxpack/core/communicator.hpp"
 #include "voxpack/core/grid.hpp"
 #include "voxpack/core/memory.hpp"
 #include "voxpack/core/progress.hpp"
@@ -77,10 +78,14 @@ struct StreamedIngestResult {
 /// Streamed ingest of `header`'s input into the bed file `output` (written atomically:
 /// nothing appears on error or cancel). `extraProvenance` keys are added to the root
 /// provenance (e.g. command_line). Throws UsageError when streamedIngestUnsupported.
+/// With `comm` of more than one rank, slab s is read, denoised and segmented by rank
+/// s mod ranks, and rank 0 writes every slab in order (the same bed as one process);
+/// only rank 0's result holds the report.
 StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& header, const IngestOptions& options,
                                           const std::filesystem::path& output,
                                           std::int64_t slabPlanes, int threads,
                                           Progress& progress = nullProgress(),
-                                          const nlohmann::json& extraProvenance = {});
+                                          const nlohmann::json& extraProvenance = {},
+                                          const Communicator* comm = nullptr);
 
 }  // namespace voxpack::ingest

@@ -1,6 +1,8 @@
 // Communicator: MPI_COMM_WORLD behind VOXPACK_MPI, one process otherwise (docs/scale.md).
-#include "voxpack/stats/distributed.hpp"
+#include "voxpack/core/communicator.hpp"
 
+#include <algorithm>
+#include <climits>
 #include <cstdlib>
 
 #ifdef VOXPACK_WITH_MPI
@@ -10,7 +12,7 @@
 #include <mpi.h>
 #endif
 
-namespace voxpack::stats {
+namespace voxpack {
 
 namespace {
 #ifdef VOXPACK_WITH_MPI
@@ -113,6 +115,49 @@ void Communicator::sendToNext(const std::vector<std::uint64_t>& values) const {
 #endif
 }
 
+double Communicator::min(double value) const {
+#ifdef VOXPACK_WITH_MPI
+  if (mpi_ && size_ > 1)
+    MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+#endif
+  return value;
+}
+
+double Communicator::max(double value) const {
+#ifdef VOXPACK_WITH_MPI
+  if (mpi_ && size_ > 1)
+    MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+#endif
+  return value;
+}
+
+// Messages go in pieces below INT_MAX bytes (MPI counts are int); both ends cut alike.
+void Communicator::sendBytes(int to, const void* data, std::size_t bytes) const {
+#ifdef VOXPACK_WITH_MPI
+  const auto* p = static_cast<const char*>(data);
+  for (std::size_t done = 0; mpi_ && done < bytes;) {
+    const std::size_t n = std::min<std::size_t>(bytes - done, INT_MAX / 2);
+    MPI_Send(p + done, static_cast<int>(n), MPI_BYTE, to, 1, MPI_COMM_WORLD);
+    done += n;
+  }
+#else
+  (void)to, (void)data, (void)bytes;
+#endif
+}
+
+void Communicator::receiveBytes(int from, void* data, std::size_t bytes) const {
+#ifdef VOXPACK_WITH_MPI
+  auto* p = static_cast<char*>(data);
+  for (std::size_t done = 0; mpi_ && done < bytes;) {
+    const std::size_t n = std::min<std::size_t>(bytes - done, INT_MAX / 2);
+    MPI_Recv(p + done, static_cast<int>(n), MPI_BYTE, from, 1, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    done += n;
+  }
+#else
+  (void)from, (void)data, (void)bytes;
+#endif
+}
+
 void Communicator::abort(int code) const {
 #ifdef VOXPACK_WITH_MPI
   if (mpi_) MPI_Abort(MPI_COMM_WORLD, code);
@@ -120,4 +165,4 @@ void Communicator::abort(int code) const {
   std::_Exit(code);
 }
 
-}  // namespace voxpack::stats
+}  // namespace voxpack
