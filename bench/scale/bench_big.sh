@@ -8,7 +8,10 @@
 #     --memory-limit INGEST_LIMIT (default 4G): streamed.
 # Peak RSS, wall and CPU from /usr/bin/time -v under ulimit -v 8 GiB. Run the same script
 # at 256 for the per-voxel baseline. Usage: bench/scale/bench_big.sh BUILD WORK [N]
-# Writes bench/results/scale_big_<N>.json. Not run by CI. The inputs are deleted at the end
+# MPI_RANKS="1 2 4" then repeats the stats run under mpirun with that many ranks (1 thread
+# each; --memory-limit STATS_LIMIT/np per rank, so the machine's total stays STATS_LIMIT).
+# Writes bench/results/scale_big_<N>.json (through a .partial file, so an interrupted run
+# leaves the committed result alone). Not run by CI. The inputs are deleted at the end
 # (KEEP=1 keeps them).
 set -euo pipefail
 build="$(cd "$1" && pwd)"; work="$2"; n="${3:-2048}"
@@ -32,14 +35,31 @@ commit="$(git -C "$root" rev-parse --short HEAD)"
   run generate_grey "$n" /usr/bin/python3 "$root/bench/scale/make_grey_nrrd.py" "$n" "$grey" 1; echo ","
   run ingest_streamed "$n" "$voxpack" --quiet --threads 2 --memory-limit "$ingest_limit" ingest "$grey" \
     --threshold otsu --column "$c,$c,$r" -o "$work/big_ingested_$n.h5" --json
+  limit_mb="$(numfmt --from=iec "$stats_limit")"; limit_mb=$((limit_mb / 1048576))
+  for np in ${MPI_RANKS:-}; do
+    echo ","
+    run "stats_mpi_np$np" "$n" mpirun --oversubscribe --allow-run-as-root -np "$np" "$voxpack" \
+      --quiet --threads 1 --memory-limit "$((limit_mb / np))M" stats "$bed" \
+      --only axial,radial,s2 --s2-max-lag-mm 3.2 --particle-diameter-mm "$d" -o "$work/big_mpi${np}_$n.json"
+  done
   echo "]}"
-} >"$out"
+} >"$out.partial"
+mv "$out.partial" "$out"
 # What the stats run chose (slabs, tiles, FFT box, estimate) and its porosity.
 /usr/bin/python3 - "$work/big_stats_$n.json" "$out" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1])); o = json.load(open(sys.argv[2]))
 o["stats_streamed"] = s.get("streamed"); o["stats_fft_dims"] = s["s2"]["fft_dims"]
 o["stats_memory_estimate"] = s.get("memory_estimate_bytes"); o["porosity"] = s.get("porosity")
+import os
+for r in o["runs"]:  # the MPI runs against the one-process run: same values?
+    if r["run"].startswith("stats_mpi_np"):
+        f = os.path.join(os.path.dirname(sys.argv[1]), "big_mpi%s_%d.json" % (r["run"][12:], o["n"]))
+        if os.path.exists(f):
+            m = json.load(open(f))
+            r["porosity"] = m.get("porosity")
+            r["s2_pairs_equal_to_one_process"] = m["s2"].get("pairs") == s["s2"].get("pairs")
+            r["s2_equal_to_one_process"] = m["s2"].get("s2") == s["s2"].get("s2")
 for r in o["runs"]:
     r["cpu_us_per_voxel"] = (r["user_s"] + r["sys_s"]) * 1e6 / r["voxels"]
 json.dump(o, open(sys.argv[2], "w"), indent=1)
