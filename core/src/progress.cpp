@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cstdio>
 #include <iostream>
+#include <string>
+
+#include "voxpack/core/errors.hpp"
 
 namespace voxpack {
 
@@ -39,6 +42,28 @@ void StderrProgress::message(std::string_view text) {
 Progress& nullProgress() {
   static NullProgress p;
   return p;
+}
+
+SlabProgress::SlabProgress(Progress& progress, std::string stage, std::int64_t total,
+                           std::string who)
+    : p_(progress),
+      stage_(std::move(stage)),
+      who_(std::move(who)),
+      total_(std::max<std::int64_t>(total, 1)),
+      start_(std::chrono::steady_clock::now()) {}
+
+void SlabProgress::step(std::int64_t done) {
+  if (p_.cancelled()) throw Cancelled(who_ + ": " + stage_);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  char buf[200];
+  if (done > 0)
+    std::snprintf(buf, sizeof buf, "%s: slab %lld/%lld, ETA %.0f s", stage_.c_str(),
+                  static_cast<long long>(done), static_cast<long long>(total_),
+                  s / static_cast<double>(done) * static_cast<double>(total_ - done));
+  else
+    std::snprintf(buf, sizeof buf, "%s: slab 0/%lld", stage_.c_str(),
+                  static_cast<long long>(total_));
+  p_.report(buf, static_cast<double>(done) / static_cast<double>(total_));
 }
 
 }  // namespace voxpack

@@ -276,11 +276,11 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     std::unordered_map<float, std::uint64_t> counts;
     bool overflow = false;
     float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    const std::int64_t own = (slabs - me + P - 1) / P;  // slabs me, me + P, ...
+    SlabProgress sp(progress, "threshold histogram (pass 1)", own, "ingest");
     for (std::int64_t s = 0; s < slabs; ++s) {
       if (!mine(s)) continue;
-      checkCancel(progress);
-      progress.report("ingest: threshold histogram (pass 1, " + std::to_string(slabs) + " slabs)",
-                      static_cast<double>(s) / static_cast<double>(slabs));
+      sp.step(s / P);
       const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
       const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
       for (float v : img.values()) {
@@ -308,6 +308,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
         counts = {};
       }
     }
+    sp.step(own);
     std::vector<std::pair<float, std::uint64_t>> sorted(counts.begin(), counts.end());
     counts = {};
     for (std::size_t v = 0; v < small.size(); ++v)
@@ -329,9 +330,10 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
                             " is not supported; use --threshold otsu");
       // Otsu needs only its bins over [lo, hi]: one more pass fills them.
       ++passes;
+      SlabProgress bp(progress, "Otsu bins (pass 2)", (slabs - me + P - 1) / P, "ingest");
       for (std::int64_t s = 0; s < slabs && hi > lo; ++s) {
         if (!mine(s)) continue;
-        checkCancel(progress);
+        bp.step(s / P);
         const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
         const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
         for (float v : img.values()) bins[otsuBin(v, lo, scale, kBins)] += 1.0;
@@ -355,11 +357,11 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0;
   ChordSums chordsCore, chordsAll;
   std::size_t specks = 0, holes = 0;
+  // Rank 0 takes every slab in order (its own or received), the others their own.
+  SlabProgress wp(progress, "segment and write (pass " + std::to_string(passes) + ")",
+                  me == 0 ? slabs : (slabs - me + P - 1) / P, "ingest");
   for (std::int64_t s = 0; s < slabs; ++s) {
-    checkCancel(progress);
-    progress.report("ingest: segment and write (pass " + std::to_string(passes) + ", " +
-                        std::to_string(slabs) + " slabs)",
-                    static_cast<double>(s) / static_cast<double>(slabs));
+    wp.step(me == 0 ? s : s / P);
     const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
     const Lattice sub = subLattice(lat, {{z0, 0, 0}, {z1 - z0, lat.ny(), lat.nx()}});
     Grid<std::uint8_t> ind;
@@ -420,9 +422,9 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     r.column = column;
     return r;
   }
+  wp.step(slabs);
   finishSummary(summary);
   timing["segment_s"] = seconds(t0);
-  progress.report("ingest: segment and write", 1.0);
 
   // segmentVolume uses the column core as the region when it holds >= 64 voxels.
   const bool coreUsed = column.found && coreIn >= 64;

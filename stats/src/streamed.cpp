@@ -47,36 +47,6 @@ struct Slabs {
   }
 };
 
-// "slab 3/10, ETA 12 s" progress over this rank's slabs.
-class SlabProgress {
- public:
-  SlabProgress(Progress& p, std::string stage, std::int64_t total)
-      : p_(p),
-        stage_(std::move(stage)),
-        total_(std::max<std::int64_t>(total, 1)),
-        start_(std::chrono::steady_clock::now()) {}
-  void step(std::int64_t done) {
-    if (p_.cancelled()) throw Cancelled("stats: " + stage_);
-    const double s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-    char buf[160];
-    if (done > 0)
-      std::snprintf(buf, sizeof buf, "%s: slab %lld/%lld, ETA %.0f s", stage_.c_str(),
-                    static_cast<long long>(done), static_cast<long long>(total_),
-                    s / static_cast<double>(done) * static_cast<double>(total_ - done));
-    else
-      std::snprintf(buf, sizeof buf, "%s: slab 0/%lld", stage_.c_str(),
-                    static_cast<long long>(total_));
-    p_.report(buf, static_cast<double>(done) / static_cast<double>(total_));
-  }
-
- private:
-  Progress& p_;
-  std::string stage_;
-  std::int64_t total_;
-  std::chrono::steady_clock::time_point start_;
-};
-
 VoxelBox planes(const VoxelBox& region, std::int64_t z0, std::int64_t z1) {
   return VoxelBox{{region.first[0] + z0, region.first[1], region.first[2]},
                   {z1 - z0, region.dims[1], region.dims[2]}};
@@ -322,7 +292,7 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   bool prism = h.hasMask;
   {
     const Slabs slabs(region.dims[0], t, comm);
-    SlabProgress sp(prog, "slice counts", slabs.last - slabs.first);
+    SlabProgress sp(prog, "slice counts", slabs.last - slabs.first, "stats");
     for (std::int64_t s = slabs.first; s < slabs.last; ++s) {
       sp.step(s - slabs.first);
       const std::int64_t z0 = s * slabs.planes, z1 = std::min(region.dims[0], z0 + slabs.planes);
@@ -396,7 +366,7 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     }
     const Slabs slabs(nz, t, comm);
     SlabProgress sp(prog, want("s2") ? "S2 and radial profile" : "radial profile",
-                    slabs.last - slabs.first);
+                    slabs.last - slabs.first, "stats");
     for (std::int64_t s = slabs.first; s < slabs.last; ++s) {
       sp.step(s - slabs.first);
       const std::int64_t z0 = s * slabs.planes, z1 = std::min(nz, z0 + slabs.planes);

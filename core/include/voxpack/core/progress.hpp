@@ -3,6 +3,7 @@
 /// Progress and cancellation hook for long work, passed into algorithms as a parameter.
 
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -42,6 +43,22 @@ class StderrProgress final : public Progress {
   bool lineOpen_ = false;
   std::string lastStage_;
   std::chrono::steady_clock::time_point last_{};
+};
+
+/// Reports slab work as "STAGE: slab 3/10, ETA 12 s" to a Progress (the ETA from the mean
+/// time per slab so far), and throws Cancelled("WHO: STAGE") when the work should stop.
+class SlabProgress {
+ public:
+  /// For `total` slabs of `stage`; `who` names the command in the Cancelled message.
+  SlabProgress(Progress& progress, std::string stage, std::int64_t total, std::string who);
+  /// `done` slabs are finished: reports, and checks for cancellation.
+  void step(std::int64_t done);
+
+ private:
+  Progress& p_;
+  std::string stage_, who_;
+  std::int64_t total_;
+  std::chrono::steady_clock::time_point start_;
 };
 
 /// A NullProgress usable as a default argument.
