@@ -9,6 +9,10 @@
 # scripts/fuzz.sh --regress [TARGET...] (for CI): builds the targets and runs each once over
 # every file of fuzz/corpus/NAME and fuzz/findings/NAME (no fuzzing), with the same limits;
 # exits 1 when any input crashes, leaks, times out or trips a sanitizer.
+#
+# VOXPACK_FUZZ_RUNS=N (the CI stage, scripts/test.sh): each target fuzzes for N executions
+# from seed 1 (-runs=N -seed=1) instead of SECONDS, so a CI run is reproducible: the same
+# commit mutates the same inputs, and a finding fails CI every time, not now and then.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 regress=0
@@ -93,9 +97,11 @@ for t in "${targets[@]}"; do
   mkdir -p "$corpus" "$artifacts"
   cp -n "$root/fuzz/corpus/$t/"* "$corpus/" 2>/dev/null || true
   log="$build/fuzz_$t.log"
-  echo "fuzz: $t for ${seconds} s"
+  budget=(-max_total_time="$seconds")
+  [[ -n "${VOXPACK_FUZZ_RUNS:-}" ]] && budget=(-runs="$VOXPACK_FUZZ_RUNS" -seed=1)
+  echo "fuzz: $t for ${budget[*]}"
   set +e
-  "$build/bin/fuzz_$t" "$corpus" -max_total_time="$seconds" $(limitsFor "$t") "${keepGoing[@]}" -max_len=65536 \
+  "$build/bin/fuzz_$t" "$corpus" "${budget[@]}" $(limitsFor "$t") "${keepGoing[@]}" -max_len=65536 \
     -print_final_stats=1 -artifact_prefix="$artifacts/" >"$log" 2>&1 &
   pid=$!
   wait "$pid"
@@ -105,7 +111,7 @@ for t in "${targets[@]}"; do
   status="$(grep -E '^#[0-9]+' "$log" | tail -1 || true)"
   [[ ${#keepGoing[@]} -gt 0 ]] && status="$(grep -E '^#[0-9]+: cov' "$log" | tail -1 || true)"
   echo "  exit $rc; $status"
-  echo "$(date -u +%FT%TZ) $t ${seconds}s exit=$rc load=$(cut -d' ' -f1-3 /proc/loadavg | tr ' ' /)" \
+  echo "$(date -u +%FT%TZ) $t ${budget[*]} exit=$rc load=$(cut -d' ' -f1-3 /proc/loadavg | tr ' ' /)" \
     "$status" >>"$build/fuzz-runs.txt"
   if ls "$artifacts"/* >/dev/null 2>&1; then
     echo "  findings: $(ls "$artifacts" | tr '\n' ' ')"

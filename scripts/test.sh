@@ -2,7 +2,8 @@
 # Installs what is missing, builds Release, runs every test (ctest: the C++ suites, the
 # CLI tests, the pytest suite and the MPI tests are all registered with ctest).
 # With VOXPACK_SANITIZER_STAGE=1 (set by .ci/run) a second build with ASan + UBSan runs the
-# unit and CLI tests again (build-asan/; docs/reliability.md, "Sanitizers").
+# unit and CLI tests again (build-asan/; docs/reliability.md, "Sanitizers"), and with
+# VOXPACK_FUZZ_STAGE=1 the libFuzzer targets run (build-fuzz/; "Fuzzing").
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${VOXPACK_BUILD_DIR:-$root/build}"
@@ -34,4 +35,16 @@ if [[ "${VOXPACK_SANITIZER_STAGE:-0}" == "1" ]]; then
   ctest --output-on-failure -j "${VOXPACK_TEST_JOBS:-2}" --timeout 900 -LE "no_sanitizer" \
     -E "$slow_dem"
   echo "test: sanitizer results in $asan/Testing"
+fi
+
+# The fuzz stage (VOXPACK_FUZZ_STAGE=1, set by .ci/run; docs/reliability.md, "Fuzzing"):
+# clang-14 + libFuzzer + ASan/UBSan in build-fuzz/. First every saved input (the seed
+# corpus and the fixed findings) once, then a short campaign per target of a fixed number
+# of executions from a fixed seed, so the same commit fuzzes the same inputs every run.
+# VOXPACK_FUZZ_TARGETS narrows the list, VOXPACK_FUZZ_RUNS sets the executions.
+if [[ "${VOXPACK_FUZZ_STAGE:-0}" == "1" ]]; then
+  read -r -a fuzz_targets <<<"${VOXPACK_FUZZ_TARGETS:-bed_reader stl scene image_header}"
+  bash "$root/scripts/fuzz.sh" --regress "${fuzz_targets[@]}"
+  VOXPACK_FUZZ_RUNS="${VOXPACK_FUZZ_RUNS:-2000}" bash "$root/scripts/fuzz.sh" 0 "${fuzz_targets[@]}"
+  echo "test: fuzz results in ${VOXPACK_FUZZ_BUILD_DIR:-$root/build-fuzz}"
 fi
