@@ -375,8 +375,14 @@ Grid<T> readBox(const Ctx& ctx, hid_t ds, const char* path, const Lattice& latti
   Handle fileSpace(H5Dget_space(ds), H5Sclose);
   Handle memSpace(H5Screate_simple(3, count, nullptr), H5Sclose);
   if (H5Sselect_hyperslab(fileSpace.get(), H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
-      H5Dread(ds, nativeType<T>(), memSpace.get(), fileSpace.get(), H5P_DEFAULT, g.data()) < 0)
+      H5Dread(ds, nativeType<T>(), memSpace.get(), fileSpace.get(), H5P_DEFAULT, g.data()) < 0) {
+    const std::string filter = hdf5guard::unavailableFilter(ds);
+    if (!filter.empty())
+      ctx.format(std::string(path) + " is compressed with the HDF5 filter " + filter +
+                 ", which this libhdf5 cannot decode; rewrite it with gzip (h5py: "
+                 "compression='gzip')");
     ctx.io(std::string("cannot read ") + path + " (file truncated or corrupt?)");
+  }
   return g;
 }
 

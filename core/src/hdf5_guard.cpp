@@ -376,4 +376,19 @@ bool readChunksChecked(hid_t ds, hid_t memType, int rank, const hsize_t* start,
   return true;
 }
 
+std::string unavailableFilter(hid_t ds) {
+  Id dcpl{H5Dget_create_plist(ds), H5Pclose};
+  const int n = dcpl.ok() ? H5Pget_nfilters(dcpl.id) : 0;
+  for (int i = 0; i < n; ++i) {
+    unsigned flags = 0, config = 0, values[8];
+    size_t nValues = 8;
+    char name[64] = {0};
+    const H5Z_filter_t id = H5Pget_filter2(dcpl.id, static_cast<unsigned>(i), &flags, &nValues,
+                                           values, sizeof name, name, &config);
+    if (id >= 0 && H5Zfilter_avail(id) <= 0)
+      return std::string(name[0] ? name : "unnamed") + " (id " + std::to_string(id) + ")";
+  }
+  return {};
+}
+
 }  // namespace voxpack::hdf5guard

@@ -26,4 +26,8 @@ bool readChunksChecked(hid_t ds, hid_t memType, int rank, const hsize_t* start,
                        const hsize_t* count, void* out, bool mpio, const std::string& file,
                        const std::string& what);
 
+/// The name and id of the first filter of `ds`'s pipeline that this libhdf5 cannot decode
+/// (e.g. h5py's lzf, "lzf (id 32000)"); empty when every filter is available.
+std::string unavailableFilter(hid_t ds);
+
 }  // namespace voxpack::hdf5guard

@@ -50,6 +50,16 @@ def main(out):
     write(os.path.join(out, "spacing_zero.h5"), ind, spacing=(0.2, 0.0, 0.2))
     write(os.path.join(out, "spacing_nan.h5"), ind, spacing=(0.2, float("nan"), 0.2))
     write(os.path.join(out, "wrong_format.h5"), ind, fmt="something-else")
+    # h5py's own lzf filter, which libhdf5 cannot decode.
+    with h5py.File(os.path.join(out, "lzf.h5"), "w") as f:
+        f.attrs["format"] = "voxpack-bed"
+        f.attrs["format_version"] = 1
+        f.attrs["spacing_mm"] = np.full(3, 0.2)
+        f.attrs["origin_mm"] = np.zeros(3)
+        f.create_dataset("indicator", data=ind, chunks=(4, 5, 9), compression="lzf")
+    # Shuffle + gzip in odd chunks: decoded by voxpack itself, exact porosity.
+    write(os.path.join(out, "shuffle_gzip.h5"), None, extra=lambda f: f.create_dataset(
+        "indicator", data=ind, chunks=(5, 3, 4), compression="gzip", shuffle=True))
     # A truncated file: the first half of a valid one.
     data = open(os.path.join(out, "good.h5"), "rb").read()
     with open(os.path.join(out, "truncated.h5"), "wb") as f:
@@ -58,6 +68,7 @@ def main(out):
         f.write("this is a text file, not HDF5\n")
     sel = mask.astype(bool)
     print(repr(float(ind[sel].sum()) / float(sel.sum())))
+    print(repr(float(ind.sum()) / float(ind.size)))
 
 
 if __name__ == "__main__":
