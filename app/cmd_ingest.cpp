@@ -117,14 +117,7 @@ class IngestCommand final : public Command {
 
   int execute(const GlobalOptions& global) override {
     const Communicator& comm = Communicator::world();
-    if (comm.size() <= 1) return run(global, comm);
-    // Under mpirun: one failing rank must not leave the others waiting for its slabs.
-    try {
-      return run(global, comm);
-    } catch (const std::exception& e) {
-      std::cerr << "error: " << e.what() << '\n';
-      comm.abort(dynamic_cast<const InputError*>(&e) || dynamic_cast<const IoError*>(&e) ? 2 : 1);
-    }
+    return runOnRanks(comm, [&] { return run(global, comm); });
   }
 
  private:

@@ -78,15 +78,8 @@ class StatsCommand final : public Command {
                  "(docs/dem.md)");
   }
   int execute(const GlobalOptions& global) override {
-    stats::Communicator& comm = stats::Communicator::world();
-    if (comm.size() <= 1) return run(global, comm);
-    // One failing rank must not leave the others waiting in a reduction.
-    try {
-      return run(global, comm);
-    } catch (const std::exception& e) {
-      std::cerr << "error: " << e.what() << '\n';
-      comm.abort(dynamic_cast<const InputError*>(&e) || dynamic_cast<const IoError*>(&e) ? 2 : 1);
-    }
+    const stats::Communicator& comm = stats::Communicator::world();
+    return runOnRanks(comm, [&] { return run(global, comm); });
   }
 
  private:

@@ -5,10 +5,13 @@
 /// exit code. Library errors propagate to main as exceptions.
 
 #include <CLI/CLI.hpp>
+#include <exception>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "voxpack/core/communicator.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/memory.hpp"
 #include "voxpack/core/progress.hpp"
@@ -88,5 +91,18 @@ std::unique_ptr<Command> makeExportCommand();   ///< voxpack export
 
 /// Every command, in --help order.
 std::vector<std::unique_ptr<Command>> allCommands();
+
+/// Runs `run()` on this rank. Under mpirun a rank that fails prints its `error:` line and
+/// aborts every rank (exit 2 for bad input and I/O), so no rank is left waiting for it.
+template <class Run>
+int runOnRanks(const Communicator& comm, Run run) {
+  if (comm.size() <= 1) return run();
+  try {
+    return run();
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << '\n';
+    comm.abort(dynamic_cast<const InputError*>(&e) || dynamic_cast<const IoError*>(&e) ? 2 : 1);
+  }
+}
 
 }  // namespace voxpack::app
