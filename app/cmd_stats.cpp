@@ -63,9 +63,14 @@ class StatsCommand final : public Command {
     sub.add_option("--seed", o_.seed, "seed of the isotropic sampling")->capture_default_str();
     sub.add_option("--slab-voxels", slabPlanes_,
                    "stream in z-slabs this many voxels (planes) thick, whatever the memory "
-                   "(axial, radial, s2, chords, orientation only; default: stream only past "
-                   "--memory-limit)")
+                   "(axial, radial, s2, chords, mes, orientation only; default: stream only "
+                   "past --memory-limit)")
         ->check(CLI::PositiveNumber);
+    sub.add_option("--mes-halo-planes", mesHalo_,
+                   "streamed mean empty space: planes read beyond each side of a slab; runs "
+                   "longer than the halo are cut and counted (default: the whole bed when it "
+                   "fits --memory-limit, else twice the slab)")
+        ->check(CLI::NonNegativeNumber);
     sub.add_option("--packed-region", packedMode_,
                    "auto: compute every statistic on the packed slices only (detected as "
                    "compare does); off: the whole bed (a warning when > 10 % is headspace)")
@@ -84,7 +89,7 @@ class StatsCommand final : public Command {
 
  private:
   std::string input_, output_, only_, csvDir_, roiZ_, roiBox_, packedMode_ = "off";
-  std::int64_t slabPlanes_ = 0;
+  std::int64_t slabPlanes_ = 0, mesHalo_ = -1;
   bool bedWindow_ = false;
   stats::StatsOptions o_;
   CLI::Option* roiZOpt_ = nullptr;
@@ -135,10 +140,11 @@ class StatsCommand final : public Command {
       if (!forced)
         requireWithinBudget(inMemory, global.memory,
                             input_ + ": stats in memory (" + cannot +
-                                " cannot stream; --only axial,radial,s2,orientation can)");
+                                " cannot stream; --only axial,radial,s2,chords,mes,orientation "
+                                "can)");
       throw UsageError(
           std::string(slabPlanes_ > 0 ? "--slab-voxels" : "mpirun") + ": " + cannot +
-          " cannot be streamed in slabs; pass --only with axial,radial,s2,orientation");
+          " cannot be streamed in slabs; pass --only with axial,radial,s2,chords,mes,orientation");
     }
 
     CommandProgress bar(global);
@@ -148,6 +154,7 @@ class StatsCommand final : public Command {
     if (stream) {
       stats::StreamOptions so;
       so.slabPlanes = slabPlanes_;
+      so.mesHaloPlanes = mesHalo_;
       so.budget = global.memory;
       so.roi = roi;
       so.packedRegion = packedAuto;

@@ -28,22 +28,6 @@ json lengthJson(const LengthDistribution& d) {
   return j;
 }
 
-json mesJson(const MesResult& r, const char* method) {
-  json j = lengthJson(r.distribution);
-  // The distribution's own (minus-sampling weighted) mean; the lattice path reports as
-  // mean_mm the lower-variance per-direction estimator of the same E[m] (docs/stats.md).
-  j["voxel_mean_mm"] = j["mean_mm"];
-  if (std::string(method) == "lattice-13" && r.distribution.samples)
-    j["mean_mm"] = finiteOrNull(r.directionalMeanMm);
-  j["method"] = method;
-  j["directions"] = r.directions;
-  j["void_voxels"] = r.voidVoxels;
-  j["undefined_voxels"] = r.undefinedVoxels;
-  j["window_cuts"] = "minus sampling (docs/stats.md)";
-  j["seconds"] = r.seconds;
-  return j;
-}
-
 json imageJson(const ShadowImage& img) {
   json rows = json::array();
   for (std::int64_t r = 0; r < img.rows; ++r) {
@@ -72,6 +56,24 @@ void writePairs(const std::filesystem::path& path, const std::string& header, co
 }
 
 }  // namespace
+
+json mesJson(const MesResult& r, const char* method) {
+  json j = lengthJson(r.distribution);
+  // The distribution's own (minus-sampling weighted) mean; the lattice path reports as
+  // mean_mm the lower-variance per-direction estimator of the same E[m] (docs/stats.md).
+  j["voxel_mean_mm"] = j["mean_mm"];
+  if (std::string(method) == "lattice-13" && r.distribution.samples)
+    j["mean_mm"] = finiteOrNull(r.directionalMeanMm);
+  j["method"] = method;
+  j["directions"] = r.directions;
+  j["void_voxels"] = r.voidVoxels;
+  j["undefined_voxels"] = r.undefinedVoxels;
+  j["window_cuts"] = "minus sampling (docs/stats.md)";
+  if (r.sliceCutVoxels || r.sliceCutChords)
+    j["slice_cuts"] = {{"voxels", r.sliceCutVoxels}, {"chords", r.sliceCutChords}};
+  j["seconds"] = r.seconds;
+  return j;
+}
 
 json chordsJson(const ChordLengths& c) {
   json j = lengthJson(c.all);

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <limits>
 
+#include "mes_window.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/stats/s2.hpp"
@@ -68,7 +69,7 @@ std::uint64_t chordStateBytes(const Dims& d) {
 }  // namespace
 
 const std::set<std::string>& streamableStatistics() {
-  static const std::set<std::string> names{"axial", "radial", "s2", "chords", "orientation"};
+  static const std::set<std::string> names{"axial", "radial", "s2", "chords", "mes", "orientation"};
   return names;
 }
 
@@ -93,10 +94,16 @@ std::uint64_t estimateInMemoryBytes(const BedHeader& h, const StatsOptions& opti
     work = std::max(work, s2);
   }
   // Scratch per voxel of the other statistics, read off their code (docs/scale.md):
-  // lattice mean empty space: float sums, counts, cut flags, six uint16 reach fields and the
-  // float mean/weight fields; pore sizes: the source, two double distance fields and the
-  // void distances; chords: the run state per column (chordStateBytes).
-  if (want("mes")) work = std::max(work, (options.mesMethod == "isotropic" ? 12 : 26) * n);
+  // lattice mean empty space: float sums, counts, cut flags and up to six uint16 reach
+  // fields (mesScratchBytesPerVoxel) for one chunk of planes; pore sizes: the source, two double
+  // distance fields and the void distances; chords: the run state per column (chordStateBytes).
+  if (want("mes")) {
+    // Lattice: one chunk of planes at the worst case of three cut axes (18 B).
+    const std::uint64_t chunk = u(mesInMemoryChunkPlanes(d[0], d[1], d[2])) * u(d[1]) * u(d[2]);
+    if (options.mesMethod != "isotropic")
+      work = std::max(work, chunk * mesScratchBytesPerVoxel({true, true, true}));
+    if (options.mesMethod != "lattice") work = std::max(work, 12 * n);  // CGAL's tree
+  }
   if (want("psd")) work = std::max(work, 21 * n);
   if (want("chords")) work = std::max(work, chordStateBytes(d));
   if (want("coordination") && h.hasLabels) work = std::max(work, 2 * n + 64 * h.particles);
@@ -237,9 +244,13 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     if (!streamableStatistics().count(s)) cannot += (cannot.empty() ? "" : ", ") + s;
   if (!cannot.empty())
     throw InputError("stats: " + cannot +
-                     " cannot be streamed in slabs (streamed: axial, radial, s2, chords, "
+                     " cannot be streamed in slabs (streamed: axial, radial, s2, chords, mes, "
                      "orientation; "
                      "pass --only with those, or raise --memory-limit)");
+  if (which.count("mes") && options.mesMethod != "lattice")
+    throw InputError("stats: mes --mes-method " + options.mesMethod +
+                     " cannot be streamed in slabs (the lattice method can; or raise "
+                     "--memory-limit)");
   auto want = [&](const char* s) { return which.count(s) != 0; };
   NullProgress quiet;
   Progress& prog = comm.rank() == 0 ? progress : quiet;
@@ -283,6 +294,9 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   requireWithinBudget(
       estimateStreamedBytes(h, region, options, t), stream.budget,
       path.string() + ": stats streamed in slabs of " + std::to_string(t) + " planes");
+  if (want("mes"))  // its least need (no cut axis, one plane, no halo), before any pass
+    requireWithinBudget(estimateMesStreamedBytes(h, region, {false, false, false}, 1, 0),
+                        stream.budget, path.string() + ": mean empty space in slabs of one plane");
 
   // Pass 1: slice counts (porosity, axial profile, packed region) and the prism test.
   std::optional<Grid<std::uint8_t>> refSlice = reader.mask(planes(region, 0, 1));
@@ -290,6 +304,8 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   counts.mask.assign(u(region.dims[0]), 0);
   counts.solid.assign(counts.mask.size(), 0);
   bool prism = h.hasMask;
+  // Void on the y and x faces, per plane: the axes the window cuts, for mean empty space.
+  std::vector<std::uint64_t> faceY(want("mes") ? u(region.dims[0]) : 0), faceX(faceY.size());
   {
     const Slabs slabs(region.dims[0], t, comm);
     SlabProgress sp(prog, "slice counts", slabs.last - slabs.first, "stats");
@@ -299,6 +315,9 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
       const Grid<std::uint8_t> ind = reader.indicator(planes(region, z0, z1));
       const auto mask = reader.mask(planes(region, z0, z1));
       accumulateSliceCounts(counts, z0, ind, mask ? &*mask : nullptr);
+      if (want("mes"))
+        markFaceVoid(ind.data(), mask ? mask->data() : nullptr, z1 - z0, region.dims[1],
+                     region.dims[2], z0, faceY, faceX);
       if (mask && prism) {
         const std::size_t slice = refSlice->size();
         for (std::int64_t k = 0; k < z1 - z0 && prism; ++k)
@@ -310,6 +329,8 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   }
   comm.sum(counts.mask);
   comm.sum(counts.solid);
+  comm.sum(faceY);
+  comm.sum(faceX);
   prism = comm.allTrue(prism);
 
   const PackedSlices packed = packedSlices(counts, stream.packedRegionFraction);
@@ -329,6 +350,10 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
     const auto e = static_cast<std::ptrdiff_t>(packed.lastSlice + 1);
     counts.mask = std::vector<std::uint64_t>(counts.mask.begin() + b, counts.mask.begin() + e);
     counts.solid = std::vector<std::uint64_t>(counts.solid.begin() + b, counts.solid.begin() + e);
+    if (!faceY.empty()) {
+      faceY = std::vector<std::uint64_t>(faceY.begin() + b, faceY.begin() + e);
+      faceX = std::vector<std::uint64_t>(faceX.begin() + b, faceX.begin() + e);
+    }
   }
   const Lattice l = subLattice(h.lattice, region);
 
@@ -403,6 +428,32 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
       out["s2"] = s2Json(r, options);
     }
   }
+  json mesRecord = nullptr;
+  if (want("mes")) {
+    // Pass 3: mean empty space over slabs with a halo (docs/scale.md).
+    const std::size_t nz = counts.mask.size();
+    const std::array<bool, 3> cutAxes{
+        nz > 0 && (counts.mask[0] > counts.solid[0] || counts.mask[nz - 1] > counts.solid[nz - 1]),
+        std::any_of(faceY.begin(), faceY.end(), [](std::uint64_t v) { return v != 0; }),
+        std::any_of(faceX.begin(), faceX.end(), [](std::uint64_t v) { return v != 0; })};
+    const MesStreamPlan plan = planMesStream(h, region, cutAxes, stream.budget, stream.slabPlanes,
+                                             stream.mesHaloPlanes, comm.size());
+    const MesResult r = meanEmptySpaceStreamed(reader, region, mesGeometry(l, cutAxes), plan, 0,
+                                               options.threads, prog, comm);
+    json m = mesJson(r, "lattice-13");
+    if (diameter > 0 && m["mean_mm"].is_number())
+      m["mean_d"] = m["mean_mm"].get<double>() / diameter;
+    out["mes"] = m;
+    const bool exact = r.sliceCutVoxels == 0 && r.sliceCutChords == 0;
+    mesRecord = {{"slab_planes", plan.slabPlanes},       {"halo_planes", plan.haloPlanes},
+                 {"estimate_bytes", plan.bytes},         {"exact", exact},
+                 {"slice_cut_voxels", r.sliceCutVoxels}, {"slice_cut_chords", r.sliceCutChords}};
+    if (!exact)
+      prog.message("warning: mean empty space: " + std::to_string(r.sliceCutVoxels) +
+                   " void voxels and " + std::to_string(r.sliceCutChords) +
+                   " chords ran past the slab windows (halo " + std::to_string(plan.haloPlanes) +
+                   " planes) and are left out as cut; raise --memory-limit for the exact result");
+  }
   if (want("orientation")) {
     Bed tableOnly;
     tableOnly.particles = particles;
@@ -410,12 +461,16 @@ json computeStatsStreamed(const std::filesystem::path& path, const StatsOptions&
   }
   out["roi_mm"] = roiRecord;
   out["packed_region"] = packedRecord;
-  out["streamed"] = {{"slab_planes", t},
-                     {"slabs", Slabs(region.dims[0], t, comm).count},
-                     {"halo_planes", halo},
-                     {"s2_tile_voxels", want("s2") ? json(options.s2TileVoxels) : json(nullptr)},
-                     {"ranks", comm.size()},
-                     {"estimate_bytes", estimateStreamedBytes(h, region, options, t)}};
+  out["streamed"] = {
+      {"slab_planes", t},
+      {"slabs", Slabs(region.dims[0], t, comm).count},
+      {"halo_planes", halo},
+      {"s2_tile_voxels", want("s2") ? json(options.s2TileVoxels) : json(nullptr)},
+      {"ranks", comm.size()},
+      {"estimate_bytes",
+       std::max(estimateStreamedBytes(h, region, options, t),
+                mesRecord.is_null() ? 0 : mesRecord["estimate_bytes"].get<std::uint64_t>())},
+      {"mes", mesRecord}};
   sanitizeNonFinite(out);
   return out;
 }

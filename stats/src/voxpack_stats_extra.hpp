@@ -8,6 +8,7 @@
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/progress.hpp"
+#include "voxpack/stats/mes.hpp"
 #include "voxpack/stats/profiles.hpp"
 #include "voxpack/stats/s2.hpp"
 #include "voxpack/stats/stats.hpp"
@@ -18,6 +19,9 @@ namespace voxpack::stats {
 /// Adds mes, psd, chords, shadow, coordination, orientation to `out` when in `which`.
 void addExtraStatistics(nlohmann::json& out, const Bed& bed, const StatsOptions& options,
                         const std::set<std::string>& which, double diameterMm, Progress& progress);
+
+/// The "mes" object of one method ("lattice-13" or "isotropic-cgal").
+nlohmann::json mesJson(const MesResult& result, const char* method);
 
 /// The "chords" object.
 nlohmann::json chordsJson(const ChordLengths& chords);

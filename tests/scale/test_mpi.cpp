@@ -26,6 +26,7 @@ json values(json j) {
   if (j.contains("options")) j["options"].erase("threads");
   // The default limit is 75 % of the memory available at the moment each run starts.
   if (j.contains("memory_estimate_bytes")) j["memory_estimate_bytes"].erase("limit");
+  if (j.contains("mes")) j["mes"].erase("seconds");
   return j;
 }
 
@@ -38,16 +39,21 @@ TEST(Mpi, StatsEqualForOneTwoThreeRanks) {
   const auto f = (tmp / "bed.h5").string();
   writeBed(f, sphereColumn(o));
   const std::string args = " --quiet --threads 1 stats " + shellQuote(f) +
-                           " --only axial,radial,s2,chords,orientation --slab-voxels 3 -o ";
-  const auto serial = (tmp / "serial.json").string();
-  ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + args + shellQuote(serial)), 0);
-  const json ref = values(readJsonFile(serial));
-  for (int n : {1, 2, 3}) {
-    const auto out = (tmp / ("np" + std::to_string(n) + ".json")).string();
-    ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0) << n << " ranks";
-    const json j = readJsonFile(out);
-    EXPECT_EQ(j["streamed"]["ranks"], n);
-    EXPECT_EQ(values(j), ref) << n << " ranks";
+                           " --only axial,radial,s2,chords,mes,orientation --slab-voxels 3 ";
+  // The mean empty space with a halo that holds every run, and with one that cuts some.
+  for (const std::string halo : {"", " --mes-halo-planes 2"}) {
+    const auto serial = (tmp / "serial.json").string();
+    ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + args + halo + " -o " + shellQuote(serial)), 0);
+    const json ref = values(readJsonFile(serial));
+    EXPECT_EQ(ref["streamed"]["mes"]["exact"].get<bool>(), halo.empty()) << halo;
+    for (int n : {1, 2, 3}) {
+      const auto out = (tmp / ("np" + std::to_string(n) + ".json")).string();
+      ASSERT_EQ(runShell(mpirun(n) + args + halo + " -o " + shellQuote(out) + " </dev/null"), 0)
+          << n << " ranks" << halo;
+      const json j = readJsonFile(out);
+      EXPECT_EQ(j["streamed"]["ranks"], n);
+      EXPECT_EQ(values(j), ref) << n << " ranks" << halo;
+    }
   }
 }
 

@@ -44,6 +44,11 @@ void expectClose(const json& a, const json& b, const std::string& where, double 
   }
 }
 
+json withoutSeconds(json j) {
+  j.erase("seconds");
+  return j;
+}
+
 json inMemory(const Bed& bed, const stats::StatsOptions& o) { return stats::computeStats(bed, o); }
 
 json streamed(const std::filesystem::path& f, const stats::StatsOptions& o, std::int64_t planes,
@@ -63,7 +68,7 @@ void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2
   const auto f = tmp / "bed.h5";
   writeBed(f, bed);
   stats::StatsOptions o;
-  o.only = {"axial", "radial", "s2", "chords", "orientation"};
+  o.only = {"axial", "radial", "s2", "chords", "mes", "orientation"};
   o.s2MaxLagMm = s2LagMm;
   const json a = inMemory(readBed(f), o);
   o.s2TileVoxels = tile;
@@ -85,6 +90,11 @@ void expectStreamedEqualsInMemory(const Bed& bed, std::int64_t planes, double s2
   // Chords along z cross the slabs; the run counts, and so the whole object, are exact.
   EXPECT_EQ(a["chords"], b["chords"]);
   EXPECT_GT(a["chords"]["z"]["samples"].get<std::int64_t>(), 0);
+  // Mean empty space: the halo holds every run through a slab, and its sums are exact
+  // integers, so the same bits as the whole bed.
+  EXPECT_TRUE(b["streamed"]["mes"]["exact"].get<bool>());
+  EXPECT_EQ(withoutSeconds(a["mes"]), withoutSeconds(b["mes"]));
+  EXPECT_GT(a["mes"]["samples"].get<std::int64_t>(), 0);
   // Pair counts exact, S2 to 1e-12 relative.
   for (const char* curve : {"axial", "transverse"}) {
     EXPECT_EQ(a["s2"][curve]["pairs"], b["s2"][curve]["pairs"]) << curve;
@@ -311,9 +321,14 @@ TEST(StreamedStats, CliSlabVoxelsEqualsInMemory) {
   expectClose(ja["s2"]["s2"], jb["s2"]["s2"], "cli s2");
   EXPECT_EQ(ja["chords"], jb["chords"]);
   // A statistic without a streamed path is a usage error with --slab-voxels.
-  const CliResult bad = runVoxpack({"stats", f, "--only", "mes", "--slab-voxels", "3", "-o", b});
+  const CliResult bad = runVoxpack({"stats", f, "--only", "psd", "--slab-voxels", "3", "-o", b});
   EXPECT_EQ(bad.exitCode, 2);
   EXPECT_NE(bad.err.find("cannot be streamed"), std::string::npos) << bad.err;
+  // So is the isotropic mean empty space (CGAL rays need the whole surface).
+  const CliResult iso = runVoxpack(
+      {"stats", f, "--only", "mes", "--mes-method", "isotropic", "--slab-voxels", "3", "-o", b});
+  EXPECT_EQ(iso.exitCode, 2);
+  EXPECT_NE(iso.err.find("cannot be streamed"), std::string::npos) << iso.err;
   // info in slabs of 2 planes gives the exact porosity.
   const CliResult info = runVoxpack({"info", f, "--json", "--slab-voxels", "2"});
   ASSERT_EQ(info.exitCode, 0) << info.err;
@@ -347,4 +362,41 @@ TEST(StreamedStats, CliPackedRegionWarnsAndCrops) {
   EXPECT_EQ(ja["packed_region"]["first_slice"], jb["packed_region"]["first_slice"]);
   EXPECT_LT(jb["porosity"].get<double>(), ja["porosity"].get<double>() - 0.1);
   EXPECT_LE(jb["lattice"]["dims"][0].get<int>(), 32);
+}
+
+// A void run 12 planes tall, bounded by solid: a halo of 12 planes holds it from every slab of
+// 4 and gives the whole bed's mean empty space; 11 planes cut it, and the cut is counted and
+// the voxels left out, never guessed.
+TEST(StreamedStats, MesHaloShorterThanARunIsCountedAndLeftOut) {
+  Lattice l = Lattice::isotropic(20, 5, 5, 0.1);
+  Bed bed;
+  bed.indicator = Grid<std::uint8_t>(l, 0);
+  for (std::int64_t k = 3; k <= 14; ++k) bed.indicator(k, 2, 2) = 1;
+  TempDir tmp;
+  const auto f = tmp / "bed.h5";
+  writeBed(f, bed);
+  stats::StatsOptions o;
+  o.only = {"mes"};
+  const json a = inMemory(readBed(f), o);
+  // Along z the chord is 12 voxels; along y, x and the 10 diagonals one step (1, √2, √3).
+  EXPECT_EQ(a["mes"]["samples"], 12);
+  EXPECT_NEAR(a["mes"]["voxel_mean_mm"].get<double>(),
+              0.1 * (14 + 6 * std::sqrt(2.0) + 4 * std::sqrt(3.0)) / 13.0, 1e-6);
+  auto run = [&](std::int64_t halo) {
+    stats::StreamOptions so;
+    so.slabPlanes = 4;
+    so.mesHaloPlanes = halo;
+    return stats::computeStatsStreamed(f, o, so, nullProgress());
+  };
+  const json whole = run(12);
+  EXPECT_TRUE(whole["streamed"]["mes"]["exact"].get<bool>());
+  EXPECT_EQ(withoutSeconds(a["mes"]), withoutSeconds(whole["mes"]));
+  const json cut = run(11);
+  EXPECT_FALSE(cut["streamed"]["mes"]["exact"].get<bool>());
+  // Slab [0, 4) owns planes 3 and the chord that starts there; it cannot see plane 15.
+  EXPECT_EQ(cut["streamed"]["mes"]["slice_cut_voxels"], 1);
+  EXPECT_EQ(cut["streamed"]["mes"]["slice_cut_chords"], 1);
+  EXPECT_EQ(cut["mes"]["samples"], 11);
+  EXPECT_EQ(cut["mes"]["undefined_voxels"], 1);
+  EXPECT_EQ(cut["mes"]["void_voxels"], 12);
 }

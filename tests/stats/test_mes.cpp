@@ -80,9 +80,14 @@ TEST(Mes, SameResultForAnyThreadCount) {
   MesLatticeOptions lo;
   lo.threads = 1;
   const MesResult c = meanEmptySpaceLattice(bed, lo);
-  lo.threads = 2;
+  lo.threads = 3;
   const MesResult d = meanEmptySpaceLattice(bed, lo);
+  // The lattice path's sums are exact integers: every number is the same bits.
   EXPECT_EQ(c.distribution.meanMm, d.distribution.meanMm);
+  EXPECT_EQ(c.distribution.stdMm, d.distribution.stdMm);
+  EXPECT_EQ(c.distribution.lognormalSigma, d.distribution.lognormalSigma);
+  EXPECT_EQ(c.distribution.pdf, d.distribution.pdf);
+  EXPECT_EQ(c.directionalMeanMm, d.directionalMeanMm);
 }
 
 TEST(Mes, ExtremesAreDefined) {

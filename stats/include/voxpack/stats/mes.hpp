@@ -66,18 +66,22 @@ struct MesLatticeOptions {
 
 /// Result of a mean-empty-space computation.
 struct MesResult {
-  LengthDistribution distribution;  ///< distribution of m over void voxels
-  double directionalMeanMm = 0;     ///< lattice path: MesField::directionalMeanMm
-  std::size_t voidVoxels = 0;       ///< void voxels inside the mask
-  std::size_t undefinedVoxels = 0;  ///< void voxels (or samples) with a chord cut by the window
-  int directions = 0;               ///< directions per voxel
-  double seconds = 0;               ///< wall time of the computation
+  LengthDistribution distribution;   ///< distribution of m over void voxels
+  double directionalMeanMm = 0;      ///< lattice path: MesField::directionalMeanMm
+  std::size_t voidVoxels = 0;        ///< void voxels inside the mask
+  std::size_t undefinedVoxels = 0;   ///< void voxels (or samples) with a chord cut by the window
+  int directions = 0;                ///< directions per voxel
+  std::uint64_t sliceCutVoxels = 0;  ///< streamed: void voxels cut only by a slab window edge
+  std::uint64_t sliceCutChords = 0;  ///< streamed: chords cut only by a slab window edge
+  double seconds = 0;                ///< wall time of the computation
 };
 
 /// The 13 lattice line directions (k, j, i steps), one per ± pair.
 const std::vector<std::array<int, 3>>& latticeDirections();
 
 /// Per-voxel m(x) (mm) along the 13 lattice directions by run-length scans, O(N) each.
+/// The sums behind the distribution and the directional mean are exact integers, so the
+/// result is the same bits for any thread count, slab split (streamed) or rank count.
 MesField meanEmptySpaceField(const Bed& bed, int threads, Progress& progress = nullProgress());
 
 /// Mean empty space by the lattice path.

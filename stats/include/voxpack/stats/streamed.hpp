@@ -74,6 +74,7 @@ struct StreamOptions {
   std::optional<CropOptions> roi;     ///< --roi-mm / --roi-box-mm crop
   bool packedRegion = false;          ///< crop to the packed region (--packed-region auto)
   double packedRegionFraction = 0.5;  ///< packed-region threshold (as compare)
+  std::int64_t mesHaloPlanes = -1;    ///< mean empty space: halo planes; < 0 = from `budget`
 };
 
 /// The statistics of the bed file `path`, streamed slab by slab over the ranks of `comm`
