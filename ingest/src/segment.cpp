@@ -86,47 +86,61 @@ Grid<std::uint8_t> applyThreshold(const Grid<float>& image, double threshold, bo
 }
 
 std::size_t removeSmallComponents(Grid<std::uint8_t>& ind, std::uint8_t phase,
-                                  std::size_t maxVoxels) {
+                                  std::size_t maxVoxels, std::int64_t countZ0,
+                                  std::int64_t countZ1) {
   if (maxVoxels == 0) return 0;
   const Lattice& l = ind.lattice();
   const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  const auto plane = static_cast<std::size_t>(ny * nx);
+  // 0 unvisited, 1 settled by an earlier search (kept, or of the other phase once
+  // flipped), 2 reached by the current one.
   std::vector<std::uint8_t> seen(ind.size(), 0);
   std::vector<std::size_t> stack, members;
   std::size_t flipped = 0;
+  const std::int64_t nb[6][3] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
+                                 {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
   for (std::size_t start = 0; start < ind.size(); ++start) {
     if (seen[start] || ind[start] != phase) continue;
-    // Flood fill (face neighbours); members are kept only while the component is small.
+    // A search gives up as soon as the component is known to be kept: more than
+    // maxVoxels voxels, a border voxel, or a voxel settled by an earlier search (which
+    // kept its component). So it holds at most maxVoxels + 6 voxels, whatever the
+    // component's size, and each voxel is reached once.
     stack.assign(1, start);
-    seen[start] = 1;
-    members.clear();
-    std::size_t size = 0;
-    bool border = false;
-    while (!stack.empty()) {
+    members.assign(1, start);
+    seen[start] = 2;
+    bool keep = false;
+    while (!stack.empty() && !keep) {
       const std::size_t off = stack.back();
       stack.pop_back();
-      ++size;
-      if (size <= maxVoxels) members.push_back(off);
       const Index3 p = l.indexOf(off);
-      if (p.k == 0 || p.j == 0 || p.i == 0 || p.k == nz - 1 || p.j == ny - 1 || p.i == nx - 1)
-        border = true;
-      const std::int64_t nb[6][3] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
-                                     {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
+      if (p.k == 0 || p.j == 0 || p.i == 0 || p.k == nz - 1 || p.j == ny - 1 || p.i == nx - 1) {
+        keep = true;
+        break;
+      }
       for (const auto& d : nb) {
-        const std::int64_t k = p.k + d[0], j = p.j + d[1], i = p.i + d[2];
-        if (!l.contains(k, j, i)) continue;
-        const std::size_t o = l.offset(k, j, i);
-        if (!seen[o] && ind[o] == phase) {
-          seen[o] = 1;
-          stack.push_back(o);
+        const std::size_t o = l.offset(p.k + d[0], p.j + d[1], p.i + d[2]);
+        if (ind[o] != phase || seen[o] == 2) continue;
+        if (seen[o] == 1 || members.size() == maxVoxels) {
+          keep = true;
+          break;
         }
+        seen[o] = 2;
+        stack.push_back(o);
+        members.push_back(o);
       }
     }
-    if (size <= maxVoxels && !border) {
-      for (std::size_t o : members) ind[o] = static_cast<std::uint8_t>(1 - phase);
-      ++flipped;
-    }
+    for (std::size_t o : members) seen[o] = 1;
+    if (keep) continue;
+    for (std::size_t o : members) ind[o] = static_cast<std::uint8_t>(1 - phase);
+    const auto k0 = static_cast<std::int64_t>(start / plane);
+    if (k0 >= countZ0 && k0 < countZ1) ++flipped;
   }
   return flipped;
+}
+
+std::size_t removeSmallComponents(Grid<std::uint8_t>& ind, std::uint8_t phase,
+                                  std::size_t maxVoxels) {
+  return removeSmallComponents(ind, phase, maxVoxels, 0, ind.lattice().nz());
 }
 
 }  // namespace voxpack::ingest

@@ -1,7 +1,6 @@
-// Slab-wise pieces of the streamed ingest: plane crops, the speck/hole clean-up with the
-// count restricted to a slab's own planes, and the solid-chord sums of voxelsPerDiameter
-// carried across slab boundaries. Each equals its whole-volume counterpart exactly on
-// the planes it reports (the halo argument is in docs/scale_ingest.md).
+// Slab-wise pieces of the streamed ingest: plane crops and the solid-chord sums of
+// voxelsPerDiameter carried across slab boundaries. Each equals its whole-volume counterpart
+// exactly on the planes it reports (the halo argument is in docs/scale_ingest.md).
 #include <algorithm>
 
 #include "stream_detail.hpp"
@@ -30,56 +29,6 @@ Grid<float> cropPlanes(const Grid<float>& g, std::int64_t from, std::int64_t to)
   std::copy(g.data() + static_cast<std::size_t>(from) * plane,
             g.data() + static_cast<std::size_t>(to) * plane, out.data());
   return out;
-}
-
-std::size_t removeSmallComponentsCounted(Grid<std::uint8_t>& ind, std::uint8_t phase,
-                                         std::size_t maxVoxels, std::int64_t countZ0,
-                                         std::int64_t countZ1) {
-  // The rule of segment.cpp's removeSmallComponents (face neighbours, components touching
-  // the lattice border kept, size <= maxVoxels flipped); a flipped component is counted
-  // when its first voxel in scan order lies in planes [countZ0, countZ1), so that every
-  // component is counted by exactly one slab.
-  if (maxVoxels == 0) return 0;
-  const Lattice& l = ind.lattice();
-  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
-  const auto plane = static_cast<std::size_t>(ny * nx);
-  std::vector<std::uint8_t> seen(ind.size(), 0);
-  std::vector<std::size_t> stack, members;
-  std::size_t flipped = 0;
-  for (std::size_t start = 0; start < ind.size(); ++start) {
-    if (seen[start] || ind[start] != phase) continue;
-    stack.assign(1, start);
-    seen[start] = 1;
-    members.clear();
-    std::size_t size = 0;
-    bool border = false;
-    while (!stack.empty()) {
-      const std::size_t off = stack.back();
-      stack.pop_back();
-      ++size;
-      if (size <= maxVoxels) members.push_back(off);
-      const Index3 p = l.indexOf(off);
-      if (p.k == 0 || p.j == 0 || p.i == 0 || p.k == nz - 1 || p.j == ny - 1 || p.i == nx - 1)
-        border = true;
-      const std::int64_t nb[6][3] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
-                                     {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
-      for (const auto& d : nb) {
-        const std::int64_t k = p.k + d[0], j = p.j + d[1], i = p.i + d[2];
-        if (!l.contains(k, j, i)) continue;
-        const std::size_t o = l.offset(k, j, i);
-        if (!seen[o] && ind[o] == phase) {
-          seen[o] = 1;
-          stack.push_back(o);
-        }
-      }
-    }
-    if (size <= maxVoxels && !border) {
-      for (std::size_t o : members) ind[o] = static_cast<std::uint8_t>(1 - phase);
-      const auto k0 = static_cast<std::int64_t>(start / plane);
-      if (k0 >= countZ0 && k0 < countZ1) ++flipped;
-    }
-  }
-  return flipped;
 }
 
 void ChordSums::addInPlane(const Grid<std::uint8_t>& ind, const Grid<std::uint8_t>* region) {

@@ -12,12 +12,6 @@ Grid<std::uint8_t> cropPlanes(const Grid<std::uint8_t>& g, std::int64_t from, st
 /// Planes [from, to) of a float grid.
 Grid<float> cropPlanes(const Grid<float>& g, std::int64_t from, std::int64_t to);
 
-/// removeSmallComponents (segment.cpp's rule) that counts only components whose first
-/// voxel lies in local planes [countZ0, countZ1).
-std::size_t removeSmallComponentsCounted(Grid<std::uint8_t>& indicator, std::uint8_t phase,
-                                         std::size_t maxVoxels, std::int64_t countZ0,
-                                         std::int64_t countZ1);
-
 /// Solid-chord sums of voxelsPerDiameter (quality.cpp), accumulated slab by slab.
 struct ChordSums {
   double total = 0;                ///< sum of chord lengths, voxels (an integer)

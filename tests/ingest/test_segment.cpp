@@ -2,7 +2,9 @@
 // synthetic volumes with known answers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/random.hpp"
@@ -76,6 +78,61 @@ TEST(Cleanup, SmallInteriorComponentsFlipBorderOnesStay) {
   EXPECT_EQ(g(0, 3, 3), 0);
   EXPECT_EQ(g(5, 3, 9), 0);
   EXPECT_EQ(removeSmallComponents(g, 0, 0), 0u);
+}
+
+// The bounded search gives the components a whole labelling would: random beds at several
+// densities and size limits, against a reference that labels every component fully (the
+// former flood fill), including a count restricted to some planes.
+TEST(Cleanup, BoundedSearchEqualsAFullLabelling) {
+  auto reference = [](Grid<std::uint8_t>& g, std::uint8_t phase, std::size_t maxV,
+                      std::int64_t z0, std::int64_t z1) {
+    const Lattice& l = g.lattice();
+    std::vector<int> label(g.size(), -1);
+    std::size_t flipped = 0;
+    for (std::size_t s = 0; s < g.size(); ++s) {
+      if (label[s] >= 0 || g[s] != phase) continue;
+      std::vector<std::size_t> comp{s}, stack{s};
+      label[s] = 1;
+      bool border = false;
+      while (!stack.empty()) {
+        const Index3 p = l.indexOf(stack.back());
+        stack.pop_back();
+        border = border || p.k == 0 || p.j == 0 || p.i == 0 || p.k == l.nz() - 1 ||
+                 p.j == l.ny() - 1 || p.i == l.nx() - 1;
+        const std::int64_t nb[6][3] = {{-1, 0, 0}, {1, 0, 0},  {0, -1, 0},
+                                       {0, 1, 0},  {0, 0, -1}, {0, 0, 1}};
+        for (const auto& d : nb) {
+          if (!l.contains(p.k + d[0], p.j + d[1], p.i + d[2])) continue;
+          const std::size_t o = l.offset(p.k + d[0], p.j + d[1], p.i + d[2]);
+          if (label[o] < 0 && g[o] == phase) {
+            label[o] = 1;
+            stack.push_back(o);
+            comp.push_back(o);
+          }
+        }
+      }
+      if (comp.size() <= maxV && !border) {
+        for (std::size_t o : comp) g[o] = static_cast<std::uint8_t>(1 - phase);
+        const auto k = static_cast<std::int64_t>(s / static_cast<std::size_t>(l.ny() * l.nx()));
+        if (k >= z0 && k < z1) ++flipped;
+      }
+    }
+    return flipped;
+  };
+  RandomStream rng(11, 0);
+  for (double voidFraction : {0.2, 0.5, 0.75})
+    for (std::size_t maxV : {std::size_t{1}, std::size_t{4}, std::size_t{30}, std::size_t{5000}}) {
+      Grid<std::uint8_t> a(Lattice::isotropic(14, 11, 13, 1.0), 0);
+      for (std::size_t n = 0; n < a.size(); ++n) a[n] = rng.uniform() < voidFraction ? 1 : 0;
+      for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
+        Grid<std::uint8_t> b = a;
+        const std::size_t got = removeSmallComponents(a, phase, maxV, 3, 9);
+        const std::size_t want = reference(b, phase, maxV, 3, 9);
+        EXPECT_EQ(got, want) << voidFraction << " " << maxV << " " << int(phase);
+        EXPECT_TRUE(std::equal(a.data(), a.data() + a.size(), b.data()))
+            << voidFraction << " " << maxV << " " << int(phase);
+      }
+    }
 }
 
 TEST(Filters, CrossMedianRemovesSpikesAndKeepsOneVoxelSheets) {

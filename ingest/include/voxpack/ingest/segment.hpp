@@ -25,4 +25,11 @@ Grid<std::uint8_t> applyThreshold(const Grid<float>& image, double threshold, bo
 std::size_t removeSmallComponents(Grid<std::uint8_t>& indicator, std::uint8_t phase,
                                   std::size_t maxVoxels);
 
+/// As above, counting only the flipped components whose first voxel (in C order) lies in
+/// planes [countZ0, countZ1) (a slab's own planes when streamed). The search behind it
+/// holds at most maxVoxels + 6 voxels, so its scratch is 1 B per voxel.
+std::size_t removeSmallComponents(Grid<std::uint8_t>& indicator, std::uint8_t phase,
+                                  std::size_t maxVoxels, std::int64_t countZ0,
+                                  std::int64_t countZ1);
+
 }  // namespace voxpack::ingest
