@@ -174,7 +174,8 @@ class IngestCommand final : public Command {
       checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
                       static_cast<std::uint64_t>(l.dims[2]), 64},
                      what);
-      requireWithinBudget(estimateIngestPeakBytes(l, o_), global.memory, what);
+      estimate_ = estimateIngestPeakBytes(l, o_, voidBright_);
+      requireWithinBudget(estimate_, global.memory, what);
     };
     CommandProgress bar(global);
     // Every stage start is a poll: the in-memory pipeline polls nowhere else.
@@ -186,6 +187,13 @@ class IngestCommand final : public Command {
       header = readVolumeHeader(input_, o_.read);
     } catch (const Error&) {
       // Not read here: the in-memory reader below reports the problem as it always has.
+    }
+    // The polarity the pipeline will use, when the header tells it (pipeline.cpp's rule).
+    if (o_.voidPolarity != VoidPolarity::Auto) {
+      voidBright_ = o_.voidPolarity == VoidPolarity::Bright;
+    } else if (header) {
+      const auto it = header->info.metadata.find("voxpack_void");
+      voidBright_ = it != header->info.metadata.end() && it->second == "bright";
     }
     if (comm.size() > 1) {
       // Under mpirun the ranks share the streamed path's slabs; the in-memory pipeline
@@ -201,6 +209,8 @@ class IngestCommand final : public Command {
       if (int rc = 0; maybeStream(*header, global, progress, rc, comm)) return rc;
     IngestResult r = ingestVolume(input_, o_, resolveThreads(global.threads), progress);
     r.bed.provenance["command_line"] = global.commandLine;
+    r.report["memory_estimate_bytes"] = {
+        {"in_memory", estimate_}, {"limit", global.memory.limitBytes}, {"path", "in_memory"}};
     progress.poll("ingest: before writing " + output_);
     writeBed(out, r.bed);
     if (json_) {
@@ -242,7 +252,7 @@ class IngestCommand final : public Command {
     checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
                     static_cast<std::uint64_t>(l.dims[2]), 64},
                    what);
-    const std::uint64_t inMemory = estimateIngestPeakBytes(l, o_);
+    const std::uint64_t inMemory = estimateIngestPeakBytes(l, o_, voidBright_);
     const bool fits = global.memory.fits(inMemory);
     if (fits && slabPlanes_ == 0 && !ranks) return false;
     const std::string why = streamedIngestUnsupported(o_, h);
@@ -300,6 +310,8 @@ class IngestCommand final : public Command {
   std::string void_ = "auto", threshold_ = "auto", column_ = "auto", denoise_ = "median",
               bias_ = "none", noise_ = "auto";
   bool json_ = false;
+  std::uint64_t estimate_ = 0;      // of the in-memory pipeline, set before the voxels are read
+  std::optional<bool> voidBright_;  // known from the options or the header
   IngestOptions o_;
 };
 

@@ -81,25 +81,50 @@ double packedRegionDensity(const Bed& bed, std::int64_t* first, std::int64_t* la
   return a > 0 ? b / a : std::numeric_limits<double>::quiet_NaN();
 }
 
-std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& o) {
+std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& o,
+                                      std::optional<bool> voidBright) {
   const auto n = static_cast<std::uint64_t>(input.size());
-  std::uint64_t out = n;
+  std::uint64_t m = n;
   if (o.resampleMm > 0.0) {
     Lattice l = input;
-    out = static_cast<std::uint64_t>(resampledLattice(l, o.resampleMm).size());
+    m = static_cast<std::uint64_t>(resampledLattice(l, o.resampleMm).size());
   }
-  // Reading: ITK's float buffer and ours (8 B/voxel). Pipeline (per output voxel): raw
-  // copy, denoised image, denoise/resample scratch, the quantile's value copy (4 B each),
-  // preliminary and final indicators, core mask, mask, flood-fill marks (1 B each) and
-  // the flood-fill stack (up to 8 B). N4 adds its input copy and ITK's images; labels the
-  // distance map, basins and their copies. Calibration holds the bed (2 B) beside a
-  // phantom (8 B with the bias field) and a nested pipeline.
-  std::uint64_t perVoxel = 16 + 5 + 8;
-  if (o.n4) perVoxel += 16;
-  if (o.labels) perVoxel += 16;
-  std::uint64_t peak = std::max<std::uint64_t>(8 * n, perVoxel * out + 4 * n);
-  if (o.calibrationRuns > 0) peak = std::max(peak, (perVoxel + 10) * out);
-  return peak;
+  // The pipeline's stages, with what each holds per voxel (pipeline.cpp); the peak is the
+  // largest. Read off the code and checked against the peak RSS of each pipeline at 256³
+  // (docs/scale.md). The raw copy (4 B) is kept for the volume threshold and for the
+  // squared-wall column refinement of Rician (MRI) images.
+  const bool volume =
+      o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
+  const bool maybeRician =
+      o.noise == NoiseChoice::Rician || (o.noise == NoiseChoice::Auto && voidBright.value_or(true));
+  const std::uint64_t raw =
+      volume || (maybeRician && o.column != ColumnMode::None && o.refineColumn) ? 4 : 0;
+  // Reading: ITK's float buffer and ours.
+  std::uint64_t peak = 8 * n;
+  // Denoising, in the input lattice: the image and the filter's output (curvature: ITK's
+  // input copy, output and update buffer as well).
+  const std::uint64_t denoise = o.denoise == DenoiseMethod::Curvature ? 20
+                                : o.denoise == DenoiseMethod::None    ? 4
+                                                                      : 8;
+  peak = std::max(peak, (denoise + raw) * n);
+  if (o.n4) peak = std::max(peak, (20 + raw) * n);  // its input copy and ITK's images
+  if (o.resampleMm > 0.0) peak = std::max(peak, (4 + raw) * (n + m));
+  // In the output lattice. Threshold choice: the image, raw, the preliminary indicator,
+  // the column core and (volume) the quantile's value copy. Segmentation: the image, the
+  // core, two indicators and the clean-up's marks (its search holds <= maxVoxels + 6).
+  const std::uint64_t choose = 4 + raw + 1 + 1 + (volume ? 4 : 0);
+  const std::uint64_t segment = 4 + 1 + 1 + 1 + 1;
+  std::uint64_t perOut = std::max(choose, segment);
+  // Labels: the distance map, the basins and their copies (28.5 B measured at 256³).
+  if (o.labels) perOut = std::max<std::uint64_t>(perOut, 30);
+  const std::uint64_t search =
+      16 * (std::min<std::uint64_t>(m, std::max(o.maxSpeckVoxels, o.maxHoleVoxels)) + 6);
+  peak = std::max(peak, perOut * m + search);
+  // Calibration holds the bed (2 B) beside a phantom (8 B with the bias field) and the
+  // same pipeline run on it.
+  if (o.calibrationRuns > 0)
+    peak = std::max(peak, 10 * m + peak * m / std::max<std::uint64_t>(n, 1));
+  return peak + kIngestProcessBaseBytes;
 }
 
 }  // namespace voxpack::ingest

@@ -26,7 +26,6 @@ using namespace stream_detail;
 // a float image with more falls back to a second pass over Otsu's bins).
 constexpr std::size_t kMaxDistinctValues = std::size_t{1} << 20;
 // Resident bytes of the process before any volume (libraries, ITK factories, HDF5).
-constexpr std::uint64_t kProcessBaseBytes = std::uint64_t{64} << 20;
 
 std::int64_t denoiseHalo(const IngestOptions& o) {
   if (o.denoise == DenoiseMethod::Median) return 1;
@@ -180,13 +179,15 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
   const auto nz = l.nz();
   const std::int64_t t = std::clamp<std::int64_t>(slabPlanes, 1, nz);
   const auto read = static_cast<std::uint64_t>(std::min(nz, t + 2 * streamedHaloPlanes(o, nz)));
-  // Per read plane: the float slab read and the filter's output (4 + 4 B), or the
-  // indicator with the flood fill's marks and its stack of offsets (1 + 1 + 8 B) plus the
-  // cropped copy (1 B). Per own plane: indicator, mask, core mask (3 B). Per plane: the
-  // z-chord state (9 B x 2 regions) and one raw plane buffer (8 B).
-  const std::uint64_t perRead = std::max<std::uint64_t>(8, 11);
+  // Per read plane: the float slab read and the filter's output (4 + 4 B), or later the
+  // indicator with the clean-up's marks and the cropped copy (1 + 1 + 1 B; the clean-up's
+  // search holds at most maxVoxels + 6 offsets). Per own plane: indicator, mask, core mask
+  // (3 B). Per plane: the z-chord state (9 B x 2 regions) and one raw plane buffer (8 B).
+  const std::uint64_t perRead = std::max<std::uint64_t>(8, 3);
+  const std::uint64_t search =
+      16 * (std::min<std::uint64_t>(read * plane, std::max(o.maxSpeckVoxels, o.maxHoleVoxels)) + 6);
   std::uint64_t bytes =
-      perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane;
+      perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
   // The first pass's exact value histogram (hash map node + bucket) and Otsu's bins.
   // A median or none selects input values, so an 8/16-bit file has at most 2^8/2^16.
   if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
@@ -196,7 +197,7 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
                                                                          : kMaxDistinctValues;
     bytes += distinct * 48 + 65536 * 8 + 1024 * 8;
   }
-  return bytes + kProcessBaseBytes;
+  return bytes + kIngestProcessBaseBytes;
 }
 
 std::int64_t streamedSlabPlanes(const VolumeHeader& h, const IngestOptions& o,
@@ -373,10 +374,10 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
         const Grid<float> img = denoisedPlanes(h, o, a, b, threads);
         ind = applyThreshold(img, t, voidBright);
       }
-      cleaned[0] = removeSmallComponentsCounted(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
+      cleaned[0] = removeSmallComponents(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
       const std::int64_t a2 = std::max<std::int64_t>(0, z0 - hh), b2 = std::min(nz, z1 + hh);
       ind = cropPlanes(ind, a2 - a, b2 - a);
-      cleaned[1] = removeSmallComponentsCounted(ind, 1, o.maxHoleVoxels, z0 - a2, z1 - a2);
+      cleaned[1] = removeSmallComponents(ind, 1, o.maxHoleVoxels, z0 - a2, z1 - a2);
       ind = cropPlanes(ind, z0 - a2, z1 - a2);
       if (me != 0) {  // to rank 0, which writes every slab in order
         comm->sendBytes(0, cleaned, sizeof cleaned);

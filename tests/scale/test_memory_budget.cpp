@@ -1,17 +1,21 @@
-// The memory budget of `stats` (issue 13): the estimate against the measured peak RSS of
-// the child process (within 25 %), refusal in < 5 s with exit 2 and the estimate, and a
-// run under `ulimit -v` of twice its estimate that completes.
+// The memory budget of `stats` and `ingest` (issue 13): the estimate against the measured peak RSS
+// of the child process (within 25 %), refusal in < 5 s with exit 2 and the estimate, and a run
+// under `ulimit -v` of twice its estimate that completes.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <vector>
 
 #include "cli_runner.hpp"
 #include "scale_fixtures.hpp"
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/json_util.hpp"
+#include "voxpack/core/random.hpp"
 
 using namespace voxpack;
 using namespace voxpack::test;
@@ -31,14 +35,15 @@ bool sanitized() {
 }
 
 // Runs voxpack ARGS (stdout/stderr to /dev/null) and returns {exit code, peak RSS bytes}.
-std::pair<int, std::uint64_t> runMeasured(const std::vector<std::string>& args) {
+std::pair<int, std::uint64_t> runMeasured(const std::vector<std::string>& args,
+                                          const std::string& stdoutPath = "/dev/null") {
   const pid_t pid = fork();
   if (pid == 0) {
     std::vector<char*> argv;
     argv.push_back(const_cast<char*>(VOXPACK_BINARY));
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
-    freopen("/dev/null", "w", stdout);
+    if (!freopen(stdoutPath.c_str(), "w", stdout)) _exit(126);
     execv(VOXPACK_BINARY, argv.data());
     _exit(127);
   }
@@ -167,4 +172,54 @@ TEST_F(BudgetBed, CompletesUnderUlimitOfTwiceItsEstimate) {
                " --only axial,radial,s2 -o " + shellQuote(out("ulimit.json")));
   EXPECT_EQ(rc, 0) << "ulimit -v " << kb << " KB";
   EXPECT_TRUE(std::filesystem::exists(out("ulimit.json")));
+}
+
+// Ingest: the estimate of each pipeline against the child's peak RSS, in memory and
+// streamed. The input is a 160³ uint8 raw NRRD of spheres on a grid (void dark, as in
+// XMT) with Gaussian noise.
+TEST(IngestBudget, EstimatesWithin25PercentOfPeakRss) {
+  if (sanitized()) GTEST_SKIP() << "RSS under AddressSanitizer is not the program's";
+  TempDir tmp;
+  const std::int64_t n = 160;
+  const auto nrrd = (tmp / "grey.nrrd").string();
+  {
+    std::ofstream f(nrrd, std::ios::binary);
+    f << "NRRD0004\ntype: uint8\ndimension: 3\nsizes: " << n << ' ' << n << ' ' << n
+      << "\nspacings: 0.1 0.1 0.1\nencoding: raw\n\n";
+    RandomStream rng(3, 0);
+    std::vector<char> plane(static_cast<std::size_t>(n * n));
+    for (std::int64_t k = 0; k < n; ++k) {
+      for (std::int64_t j = 0; j < n; ++j)
+        for (std::int64_t i = 0; i < n; ++i) {
+          const double dk = static_cast<double>(k % 20) - 9.5,
+                       dj = static_cast<double>(j % 20) - 9.5,
+                       di = static_cast<double>(i % 20) - 9.5;
+          const double v = (dk * dk + dj * dj + di * di < 64 ? 180.0 : 60.0) + 15.0 * rng.normal();
+          plane[static_cast<std::size_t>(j * n + i)] =
+              static_cast<char>(static_cast<unsigned char>(std::clamp(v, 0.0, 255.0)));
+        }
+      f.write(plane.data(), static_cast<std::streamsize>(plane.size()));
+    }
+  }
+  const std::vector<std::vector<std::string>> pipelines{
+      {},                                                  // volume threshold, auto column
+      {"--threshold", "otsu", "--column", "9.55,9.55,9"},  // Otsu, explicit column
+      {"--threshold", "otsu", "--column", "none", "--slab-voxels", "24"}};  // streamed
+  for (const auto& extra : pipelines) {
+    std::vector<std::string> args{
+        "--quiet", "--threads", "1", "ingest", nrrd, "-o", (tmp / "bed.h5").string(), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const std::string report = (tmp / "report.json").string();
+    const auto [rc, rss] = runMeasured(args, report);
+    ASSERT_EQ(rc, 0) << extra.size();
+    const nlohmann::json j = readJsonFile(report);
+    const double estimate = j.contains("streamed")
+                                ? j["streamed"]["memory_estimate_bytes"].get<double>()
+                                : j["memory_estimate_bytes"]["in_memory"].get<double>();
+    const double ratio = estimate / static_cast<double>(rss);
+    EXPECT_GT(ratio, 0.75) << "pipeline " << extra.size() << ": estimate " << estimate
+                           << " B, peak RSS " << rss << " B";
+    EXPECT_LT(ratio, 1.25) << "pipeline " << extra.size() << ": estimate " << estimate
+                           << " B, peak RSS " << rss << " B";
+  }
 }

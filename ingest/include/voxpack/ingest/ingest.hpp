@@ -66,8 +66,15 @@ struct ImageQuality {
   double voxelsPerDiameter = 0;  ///< sphere-equivalent particle diameter 6V/S in voxels
 };
 
-/// Peak memory of the pipeline on an input of `input` voxels, bytes (before reading).
-std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& options);
+/// Resident memory of `voxpack ingest` before any volume is read (code, ITK, HDF5 and the
+/// other libraries, heap arenas): measured on a 2³ NRRD (docs/scale.md).
+inline constexpr std::uint64_t kIngestProcessBaseBytes = std::uint64_t{44} << 20;
+
+/// Peak memory of the pipeline on an input of `input` voxels, bytes (before reading),
+/// kIngestProcessBaseBytes included. `voidBright`: the polarity when known from the header
+/// (a dark void needs no Rician copy of the raw image), else the worst case.
+std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& options,
+                                      std::optional<bool> voidBright = std::nullopt);
 
 /// A segmented bed and the record of how it was made.
 struct IngestResult {
