@@ -221,5 +221,13 @@ TEST(IngestBudget, EstimatesWithin25PercentOfPeakRss) {
                            << " B, peak RSS " << rss << " B";
     EXPECT_LT(ratio, 1.25) << "pipeline " << extra.size() << ": estimate " << estimate
                            << " B, peak RSS " << rss << " B";
+    // Under an address-space limit of twice the estimate it completes (one thread and two
+    // malloc arenas, as for stats above).
+    const auto kb = static_cast<long long>(2 * estimate / 1024);
+    std::string cmd = "ulimit -v " + std::to_string(kb) +
+                      "; MALLOC_ARENA_MAX=2 OMP_NUM_THREADS=1 " + shellQuote(VOXPACK_BINARY);
+    for (const auto& a : args) cmd += " " + shellQuote(a);
+    EXPECT_EQ(runShell(cmd + " >/dev/null"), 0)
+        << "pipeline " << extra.size() << " under ulimit -v " << kb << " KB";
   }
 }
