@@ -77,69 +77,98 @@ inline Moments moments(const double* f, const double* force) {
   return m;
 }
 
-// c_q . v for q = 1..9 (index 0 unused), in kC order.
-inline void projections(const double* v, double* out) {
-  out[0] = 0;
-  out[1] = v[0];
-  out[2] = v[1];
-  out[3] = v[2];
-  out[4] = v[0] + v[1];
-  out[5] = v[0] - v[1];
-  out[6] = v[0] + v[2];
-  out[7] = v[0] - v[2];
-  out[8] = v[1] + v[2];
-  out[9] = v[1] - v[2];
-}
+// One fused stream (pull) + TRT collision step over cells [begin, end), in batches of
+// kLanes cells: the pull (indirect loads) and the wall links are per cell, the collision
+// runs across the batch's lanes as one SIMD loop, each lane doing exactly the scalar
+// arithmetic in the same order (no FMA: -ffp-contract=off), so the result is the same
+// bits as a cell-by-cell loop, and the reductions are added in cell order.
+constexpr int kLanes = 8;
+// w_q of the pairs q = 1..9 (index 0 unused).
+constexpr double kWPair[10] = {0,        1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 36,
+                               1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
 
-// One fused stream (pull) + TRT collision step over cells [begin, end).
 template <class T>
-void stepRange(const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
-               const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end,
-               const Rates& r, int axis, BlockSums* sums) {
+__attribute__((target_clones("avx2", "default"))) void stepRange(
+    const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
+    const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
+    int axis, BlockSums* sums) {
   const double wp = r.omegaPlus, wm = r.omegaMinus;
   const double gp = 1.0 - 0.5 * wp, gm = 1.0 - 0.5 * wm;
-  for (std::size_t c = begin; c < end; ++c) {
-    double f[kQ];
-    const std::uint32_t* from = src + c * (kQ - 1);
-    f[0] = fin[c * kQ];
-    for (int q = 1; q < kQ; ++q) f[q] = fin[from[q - 1]];
-    for (; lk != lkEnd && lk->cell == c; ++lk)
-      f[lk->slot] =
-          lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
-    const double* F = inSample[c] ? r.force : kZero3;
-    const Moments m = moments(f, F);
-    const double uu = m.u[0] * m.u[0] + m.u[1] * m.u[1] + m.u[2] * m.u[2];
-    const double uF = m.u[0] * F[0] + m.u[1] * F[1] + m.u[2] * F[2];
-    if (sums && inSample[c]) {
-      sums->axial += m.u[axis];
-      sums->speed += std::sqrt(uu);
+  for (std::size_t c0 = begin; c0 < end; c0 += kLanes) {
+    const int nl = static_cast<int>(std::min<std::size_t>(kLanes, end - c0));
+    alignas(64) double f[kQ][kLanes], out[kQ][kLanes], F[3][kLanes];
+    alignas(64) double u[3][kLanes], uuOut[kLanes], rhoOut[kLanes];
+    for (int l = 0; l < kLanes; ++l) {
+      const std::size_t c = c0 + static_cast<std::size_t>(l);
+      if (l >= nl) {  // a lane past the range computes on zeros and is not stored
+        for (int q = 0; q < kQ; ++q) f[q][l] = 0.0;
+        for (int d = 0; d < 3; ++d) F[d][l] = 0.0;
+        continue;
+      }
+      const std::uint32_t* from = src + c * (kQ - 1);
+      f[0][l] = fin[c * kQ];
+      for (int q = 1; q < kQ; ++q) f[q][l] = fin[from[q - 1]];
+      for (; lk != lkEnd && lk->cell == c; ++lk)
+        f[lk->slot][l] =
+            lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
+      const double* force = inSample[c] ? r.force : kZero3;
+      for (int d = 0; d < 3; ++d) F[d][l] = force[d];
     }
-    if (sums) sums->mass += m.rho;
-    // Rest population.
-    {
-      const double eq = kW[0] * (m.drho - 1.5 * m.rho * uu);
-      const double s = kW[0] * (-3.0 * uF);
-      fout[c * kQ] = static_cast<T>(f[0] - wp * (f[0] - eq) + gp * s);
-    }
-    // Pairs (q, q + 9) with c_{q+9} = -c_q.
-    double cuAll[10], cFAll[10];
-    projections(m.u, cuAll);
-    projections(F, cFAll);
+#pragma omp simd
+    for (int l = 0; l < kLanes; ++l) {
+      // Moments, written out for D3Q19 (kC order): a loop over kC would multiply by 0 and
+      // +-1 at run time (IEEE rules forbid folding x * 0).
+      const double d1 = f[1][l] - f[10][l], d2 = f[2][l] - f[11][l], d3 = f[3][l] - f[12][l],
+                   d4 = f[4][l] - f[13][l], d5 = f[5][l] - f[14][l], d6 = f[6][l] - f[15][l],
+                   d7 = f[7][l] - f[16][l], d8 = f[8][l] - f[17][l], d9 = f[9][l] - f[18][l];
+      const double j0 = d1 + d4 + d5 + d6 + d7, j1 = d2 + d4 - d5 + d8 + d9,
+                   j2 = d3 + d6 - d7 + d8 - d9;
+      double sum = f[0][l];
+      for (int q = 1; q < kQ; ++q) sum += f[q][l];
+      const double drho = sum, rho = 1.0 + sum;
+      // Guo's forcing: the velocity carries half the force of the step.
+      const double F0 = F[0][l], F1 = F[1][l], F2 = F[2][l];
+      const double u0 = (j0 + 0.5 * F0) / rho, u1 = (j1 + 0.5 * F1) / rho,
+                   u2 = (j2 + 0.5 * F2) / rho;
+      const double uu = u0 * u0 + u1 * u1 + u2 * u2;
+      const double uF = u0 * F0 + u1 * F1 + u2 * F2;
+      u[0][l] = u0;
+      u[1][l] = u1;
+      u[2][l] = u2;
+      uuOut[l] = uu;
+      rhoOut[l] = rho;
+      {  // rest population
+        const double eq = kW[0] * (drho - 1.5 * rho * uu);
+        const double s0 = kW[0] * (-3.0 * uF);
+        out[0][l] = f[0][l] - wp * (f[0][l] - eq) + gp * s0;
+      }
+      // c_q . u and c_q . F for q = 1..9; pairs (q, q + 9) with c_{q+9} = -c_q.
+      const double cu[10] = {0, u0, u1, u2, u0 + u1, u0 - u1, u0 + u2, u0 - u2, u1 + u2, u1 - u2};
+      const double cf[10] = {0, F0, F1, F2, F0 + F1, F0 - F1, F0 + F2, F0 - F2, F1 + F2, F1 - F2};
 #pragma GCC unroll 9
-    for (int q = 1; q <= 9; ++q) {
-      const int qb = q + 9;
-      const double cu = cuAll[q], cF = cFAll[q];
-      const double w = q <= 3 ? 1.0 / 18.0 : 1.0 / 36.0;
-      const double eqp = w * (m.drho + m.rho * (4.5 * cu * cu - 1.5 * uu));
-      const double eqm = w * m.rho * 3.0 * cu;
-      const double sp = w * (9.0 * cu * cF - 3.0 * uF);
-      const double sm = w * 3.0 * cF;
-      const double fp = 0.5 * (f[q] + f[qb]);
-      const double fm = 0.5 * (f[q] - f[qb]);
-      const double relaxP = -wp * (fp - eqp) + gp * sp;
-      const double relaxM = -wm * (fm - eqm) + gm * sm;
-      fout[c * kQ + q] = static_cast<T>(f[q] + relaxP + relaxM);
-      fout[c * kQ + qb] = static_cast<T>(f[qb] + relaxP - relaxM);
+      for (int q = 1; q <= 9; ++q) {
+        const int qb = q + 9;
+        const double w = kWPair[q];
+        const double eqp = w * (drho + rho * (4.5 * cu[q] * cu[q] - 1.5 * uu));
+        const double eqm = w * rho * 3.0 * cu[q];
+        const double sp = w * (9.0 * cu[q] * cf[q] - 3.0 * uF);
+        const double sm = w * 3.0 * cf[q];
+        const double fp = 0.5 * (f[q][l] + f[qb][l]);
+        const double fm = 0.5 * (f[q][l] - f[qb][l]);
+        const double relaxP = -wp * (fp - eqp) + gp * sp;
+        const double relaxM = -wm * (fm - eqm) + gm * sm;
+        out[q][l] = f[q][l] + relaxP + relaxM;
+        out[qb][l] = f[qb][l] + relaxP - relaxM;
+      }
+    }
+    for (int l = 0; l < nl; ++l) {
+      const std::size_t c = c0 + static_cast<std::size_t>(l);
+      for (int q = 0; q < kQ; ++q) fout[c * kQ + q] = static_cast<T>(out[q][l]);
+      if (sums && inSample[c]) {
+        sums->axial += u[axis][l];
+        sums->speed += std::sqrt(uuOut[l]);
+      }
+      if (sums) sums->mass += rhoOut[l];
     }
   }
 }
