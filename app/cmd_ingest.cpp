@@ -69,6 +69,14 @@ class IngestCommand final : public Command {
         ->capture_default_str();
     sub.add_option("--column", column_, "auto, none, or CX,CY,R in mm (vertical axis)")
         ->capture_default_str();
+    sub.add_option("--deconvolve", o_.deconvolveIterations,
+                   "Richardson-Lucy deconvolution with this many iterations before the "
+                   "threshold (0 = off), Gaussian PSF of the blur fitted at the column wall "
+                   "or --psf-sigma-mm")
+        ->check(CLI::Range(0, 200));
+    sub.add_option("--psf-sigma-mm", o_.psfSigmaMm,
+                   "--deconvolve: the PSF's Gaussian sigma in mm (default: the wall's blur)")
+        ->check(CLI::NonNegativeNumber);
     sub.add_option("--resample", o_.resampleMm, "resample onto this isotropic voxel (mm)")
         ->check(CLI::PositiveNumber);
     sub.add_option("--voxel-size", o_.read.voxelSizeMm,

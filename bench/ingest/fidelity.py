@@ -2,7 +2,8 @@
 """Ingest fidelity: density bias and near-wall profile error of `voxpack ingest` on phantoms
 of known beds, before (Otsu + voxel-level column circle) and after (the default pipeline).
 
-usage: fidelity.py VOXPACK WORKDIR OUT.json [--study sweep|diagnosis|all] [--quick]
+usage: fidelity.py VOXPACK WORKDIR OUT.json [--study sweep|diagnosis|deconv|all] [--quick]
+                   [--deconv N]   (the sweep also runs `--deconvolve N`: variant after+deconv)
        fidelity.py VOXPACK WORKDIR OUT.json --case BED,VPD,SNR,BLUR,MODALITY [--diag]
 
 Beds, packed once into WORKDIR by `voxpack pack --mode mc --seed 1` (the lattice of the bed
@@ -157,6 +158,8 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
 
 
 STD = [("after", []), ("before", BEFORE)]
+DECONV = ARGS[ARGS.index("--deconv") + 1] if "--deconv" in ARGS else None
+SWEEP = STD + ([("after+deconv", ["--deconvolve", DECONV])] if DECONV else [])
 DIAG = STD + [
     ("after+true_column", lambda t: t.column_flag()),
     ("before+true_column", lambda t: ["--threshold", "otsu"] + t.column_flag()),
@@ -199,7 +202,7 @@ if STUDY in ("sweep", "all"):
     vpds = (10, 20) if QUICK else (8, 10, 15, 20, 30)
     for name in ("spheres", "cylinders"):
         for vpd in vpds:
-            records += case(name, vpd, 10, 1, "mri", STD, "vpd")
+            records += case(name, vpd, 10, 1, "mri", SWEEP, "vpd")
             save()
     snrs = (10,) if QUICK else (5, 10, 20, 50)
     blurs = (0, 1) if QUICK else (0, 0.5, 1, 1.5)
@@ -208,13 +211,13 @@ if STUDY in ("sweep", "all"):
             for blur in blurs:
                 if snr == 10 and blur == 1:
                     continue  # in the vpd sweep
-                records += case("spheres", vpd, snr, blur, "mri", STD, "snr_blur")
+                records += case("spheres", vpd, snr, blur, "mri", SWEEP, "snr_blur")
                 save()
     for name in ("spheres", "cylinders"):
         for vpd in (10, 20):
-            records += case(name, vpd, 10, 1, "xmt", STD, "xmt")
+            records += case(name, vpd, 10, 1, "xmt", SWEEP, "xmt")
             save()
-if STUDY == "deconv":  # needs an ingest --deconvolve option (not built yet)
+if STUDY == "deconv":  # where deconvolution should help most: coarse, blurred, high SNR
     DEC = STD + [("after+deconv", ["--deconvolve", "10"])]
     for name, vpd, blur in (("spheres", 10, 1), ("spheres", 15, 1.5), ("cylinders", 20, 1)):
         for snr in (10, 50):

@@ -32,11 +32,23 @@ def goal(r):
     return None
 
 
+def dcols(r, g):
+    q = pick(study=r["study"], bed=r["bed"], modality=r["modality"],
+             voxels_per_d=r["voxels_per_d"], snr=r["snr"], blur_voxels=r["blur_voxels"],
+             variant="after+deconv")
+    if not q:
+        return " | | |"
+    ok = "" if g is None else ("met" if abs(q[0]["bias"]) < g else f"**missed** (< {g})")
+    return f" {fmt(q[0]['bias'])} | {q[0]['near_wall_rmse']:.3f} | {ok} |"
+
+
 print("### Sweep (MRI unless noted; bias = ingested - truth density; RMSE = first d of the "
       "radial profile)\n")
+deconv = any(r["variant"] == "after+deconv" and r["study"] != "deconv" for r in recs)
 print("| study | bed | modality | voxels/d | SNR | blur (voxel) | bias before | bias after | "
-      "RMSE before | RMSE after | radius err after (voxel) | goal |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+      "RMSE before | RMSE after | radius err after (voxel) | goal |" +
+      (" bias `--deconvolve` | RMSE `--deconvolve` | goal `--deconvolve` |" if deconv else ""))
+print("|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|---|---|" if deconv else ""))
 for r in recs:
     if r["variant"] != "after" or r["study"] == "diagnosis":
         continue
@@ -49,7 +61,7 @@ for r in recs:
     print(f"| {r['study']} | {r['bed']} | {r['modality']} | {r['voxels_per_d']} | {r['snr']:g} | "
           f"{r['blur_voxels']:g} | {fmt(b['bias'] if b else None)} | {fmt(r['bias'])} | "
           f"{b['near_wall_rmse']:.3f} | {r['near_wall_rmse']:.3f} | "
-          f"{fmt(r['radius_err_voxels'], 3)} | {ok} |")
+          f"{fmt(r['radius_err_voxels'], 3)} | {ok} |" + (dcols(r, g) if deconv else ""))
 
 print("\n### Diagnosis (MRI, SNR 10): bias per variant\n")
 cases = sorted({(r["bed"], r["voxels_per_d"], r["blur_voxels"]) for r in pick(study="diagnosis")})

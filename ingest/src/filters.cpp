@@ -91,6 +91,35 @@ void curvatureDiffusion(Grid<float>& image, const CurvatureDiffusionOptions& o, 
   image.values() = std::move(raw.data);
 }
 
+std::size_t richardsonLucy(Grid<float>& image, double sigmaMm, int iterations, int threads) {
+  if (iterations < 1 || iterations > 200)
+    throw InputError("deconvolution iterations must be 1..200");
+  if (!(sigmaMm > 0.0) || !std::isfinite(sigmaMm))
+    throw InputError("deconvolution: the point-spread sigma must be > 0 mm");
+  auto raw = toRaw(image);
+  std::size_t clipped = 0;
+  double sum = 0;
+  for (float& v : raw.data) {
+    if (v < 0.0f) {
+      v = 0.0f;
+      ++clipped;
+    }
+    sum += v;
+  }
+  // A small constant keeps every blurred estimate > 0 (the update divides by it); the blur
+  // maps a constant to itself, so it is taken off afterwards.
+  const auto offset = static_cast<float>(
+      1e-2 * sum / static_cast<double>(std::max<std::size_t>(1, raw.data.size())) + 1e-6);
+  for (float& v : raw.data) v += offset;
+  const Lattice& l = image.lattice();
+  bridge::richardsonLucy(
+      raw, {sigmaMm / l.spacingMm[0], sigmaMm / l.spacingMm[1], sigmaMm / l.spacingMm[2]},
+      iterations, threads);
+  for (float& v : raw.data) v -= offset;
+  image.values() = std::move(raw.data);
+  return clipped;
+}
+
 double n4BiasCorrection(Grid<float>& image, const N4Options& o, int threads, Progress& progress) {
   if (o.shrinkFactor < 1 || o.shrinkFactor > 16) throw InputError("N4 shrink factor must be 1..16");
   if (o.fittingLevels < 1 || o.fittingLevels > 6)

@@ -57,6 +57,10 @@ void writeDicomSeries(const std::string& dir, const Raw<float>& image);
 /// Curvature anisotropic diffusion in place (unit spacing).
 void curvatureDiffusion(Raw<float>& image, int iterations, double conductance, double timeStep,
                         int threads);
+/// Richardson-Lucy deconvolution in place with a normalised Gaussian kernel of
+/// `sigmaVoxels` (z, y, x; voxels), `iterations` steps. The image must be >= 0.
+void richardsonLucy(Raw<float>& image, const std::array<double, 3>& sigmaVoxels, int iterations,
+                    int threads);
 /// N4 on the voxels where mask != 0; divides `image` by the field; returns log-field range.
 double n4(Raw<float>& image, const std::vector<std::uint8_t>& mask, int shrinkFactor, int levels,
           int iterationsPerLevel, double convergence, int controlPoints, int threads);

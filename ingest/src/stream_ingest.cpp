@@ -155,6 +155,7 @@ std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader
         "curvature diffusion (ITK scales its conductance by the whole image's "
         "gradient; use --denoise median or median-box)");
   if (o.resampleMm > 0.0) why.push_back("--resample");
+  if (o.deconvolveIterations > 0) why.push_back("--deconvolve (an FFT of the whole image)");
   if (o.calibrationRuns > 0) why.push_back("--calibrate");
   if (o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume)
     why.push_back(

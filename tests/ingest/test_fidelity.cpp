@@ -107,7 +107,7 @@ struct Fidelity {
 // Images `truth` (phantom at SNR 10, blur 1 voxel), ingests it with the default pipeline
 // and compares over the packed slices, one diameter in from the bed's bottom and top.
 Fidelity run(const Bed& truth, Modality modality, std::uint64_t seed,
-             const MaskGeometry* geometry = nullptr) {
+             const MaskGeometry* geometry = nullptr, int deconvolve = 0) {
   PhantomOptions po;
   po.modality = modality;
   po.snr = 10.0;
@@ -115,6 +115,7 @@ Fidelity run(const Bed& truth, Modality modality, std::uint64_t seed,
   po.seed = seed;
   IngestOptions io;
   io.voidPolarity = modality == Modality::Mri ? VoidPolarity::Bright : VoidPolarity::Dark;
+  io.deconvolveIterations = deconvolve;
   Volume v;
   v.image = makePhantom(truth, po, 2);
   v.info.source = "phantom";
@@ -219,4 +220,25 @@ TEST(Fidelity, ColumnFillingTheFieldOfViewIsFound) {
     // is right (docs/ingest.md, "left"), so 0.008 for MRI here; XMT holds 0.005.
     EXPECT_NEAR(f.density, f.truthDensity, m == Modality::Mri ? 0.008 : 0.005);
   }
+}
+
+// Richardson-Lucy with the blur fitted at the wall (--deconvolve 10) on the same MRI
+// phantoms: the near-wall band the blur darkens is restored, so the first d of the radial
+// profile meets the 0.03 RMSE goal that the default pipeline misses here (measured 0.0156
+// and 0.0162 against 0.031 and 0.025). The density does not improve on this bed: the
+// band's too-solid voxels had offset the core's too-void mean-intensity levels
+// (docs/ingest.md), and with the band restored the bias is -0.0069 and -0.0075.
+TEST(Fidelity, DeconvolutionRestoresTheNearWallProfileOnMri) {
+  const Fidelity margin = run(packedBed(), Modality::Mri, 11, nullptr, 10);
+  ASSERT_TRUE(margin.result.column.found);
+  EXPECT_LE(margin.profileRmse, 0.03);
+  EXPECT_NEAR(margin.density, margin.truthDensity, 0.008);
+  const auto& d = margin.result.report["deconvolution"];
+  EXPECT_EQ(d["method"], "richardson-lucy");
+  EXPECT_NEAR(d["psf_sigma_mm"].get<double>(), kVoxelMm, 0.3 * kVoxelMm);
+  const MaskGeometry whole = maskGeometry(packedBed());
+  const Fidelity cut = run(cropped(packedBed(), 46), Modality::Mri, 13, &whole, 10);
+  ASSERT_TRUE(cut.result.column.found);
+  EXPECT_LE(cut.profileRmse, 0.03);
+  EXPECT_NEAR(cut.density, cut.truthDensity, 0.008);
 }

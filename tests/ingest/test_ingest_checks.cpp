@@ -92,3 +92,30 @@ TEST(Hardening, IngestPastTheMemoryLimitIsRefusedWithTheEstimate) {
   EXPECT_GE(est, 14u * g.size());
   EXPECT_LE(est, 15u * g.size());
 }
+
+// --deconvolve without a blur to use (no column wall, no --psf-sigma-mm) warns and records
+// that nothing was done; it has no streamed path; with --psf-sigma-mm it runs.
+TEST(IngestChecks, DeconvolveNeedsABlurAndDoesNotStream) {
+  TempDir dir;
+  Grid<float> g(Lattice::isotropic(24, 24, 24, 0.2), 100.0f);
+  for (std::size_t n = 0; n < g.size(); n += 3) g[n] = 900.0f;
+  writeVolume(dir / "v.nrrd", g, PixelType::UInt16);
+  const std::string in = (dir / "v.nrrd").string(), out = (dir / "b.h5").string();
+  const CliResult none = runVoxpack({"ingest", in, "-o", out, "--json", "--column", "none",
+                                     "--threshold", "otsu", "--deconvolve", "5"});
+  ASSERT_EQ(none.exitCode, 0) << none.err;
+  EXPECT_NE(none.err.find("no blur was measured"), std::string::npos) << none.err;
+  EXPECT_EQ(nlohmann::json::parse(none.out)["deconvolution"]["method"], "none");
+  const CliResult given =
+      runVoxpack({"ingest", in, "-o", out, "--json", "--column", "none", "--threshold", "otsu",
+                  "--deconvolve", "5", "--psf-sigma-mm", "0.2"});
+  ASSERT_EQ(given.exitCode, 0) << given.err;
+  const auto d = nlohmann::json::parse(given.out)["deconvolution"];
+  EXPECT_EQ(d["method"], "richardson-lucy");
+  EXPECT_EQ(d["psf_from"], "--psf-sigma-mm");
+  const CliResult streamed =
+      runVoxpack({"ingest", in, "-o", out, "--column", "none", "--threshold", "otsu",
+                  "--deconvolve", "5", "--psf-sigma-mm", "0.2", "--slab-voxels", "4"});
+  EXPECT_EQ(streamed.exitCode, 2);
+  EXPECT_NE(streamed.err.find("--deconvolve"), std::string::npos) << streamed.err;
+}

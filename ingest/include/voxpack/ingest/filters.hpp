@@ -27,6 +27,11 @@ struct CurvatureDiffusionOptions {
 /// Edge-preserving smoothing (Whitaker's modified curvature diffusion), in place.
 void curvatureDiffusion(Grid<float>& image, const CurvatureDiffusionOptions& options, int threads);
 
+/// Richardson-Lucy deconvolution (ITK) with a Gaussian point-spread function of standard
+/// deviation `sigmaMm`, `iterations` steps (1..200), in place. Negative values are clipped
+/// to 0 first (the method needs a non-negative image); returns how many were.
+std::size_t richardsonLucy(Grid<float>& image, double sigmaMm, int iterations, int threads);
+
 /// Options of n4BiasCorrection (ITK N4BiasFieldCorrectionImageFilter, Tustison 2010).
 struct N4Options {
   int shrinkFactor = 4;         ///< fit on a grid shrunk by this factor per axis, 1..16

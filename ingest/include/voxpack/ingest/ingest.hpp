@@ -39,8 +39,10 @@ struct IngestOptions {
   int medianRadiusVoxels = 1;                      ///< MedianBox half-width, 1..5
   CurvatureDiffusionOptions curvature;             ///< for DenoiseMethod::Curvature
   bool n4 = false;                                 ///< N4 bias correction (MRI)
-  N4Options n4Options;                             ///< for n4
-  double resampleMm = 0.0;                         ///< > 0: resample onto this isotropic voxel
+  int deconvolveIterations = 0;  ///< > 0: Richardson-Lucy steps before the threshold
+  double psfSigmaMm = 0.0;       ///< deconvolution PSF sigma; 0 = the blur fitted at the wall
+  N4Options n4Options;           ///< for n4
+  double resampleMm = 0.0;       ///< > 0: resample onto this isotropic voxel
   ThresholdMethod threshold = ThresholdMethod::Auto;  ///< threshold choice
   NoiseChoice noise = NoiseChoice::Auto;              ///< noise model of the level fit
   double thresholdValue = 0.0;                        ///< for Manual, in image intensity units
