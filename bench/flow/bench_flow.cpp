@@ -16,6 +16,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "flow_fixtures.hpp"
@@ -100,10 +101,40 @@ double copyBandwidth(std::size_t n, int threads) {
     for (std::int64_t i = 0; i < nn; ++i)
       b[static_cast<std::size_t>(i)] = a[static_cast<std::size_t>(i)];
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    best = std::max(best, 2.0 * static_cast<double>(n) * sizeof(float) / s);
+    // Read a, read b for ownership (write-allocate), write b: 3 x 4 bytes per element, the
+    // convention of the LBM's byte count below.
+    best = std::max(best, 3.0 * static_cast<double>(n) * sizeof(float) / s);
     std::swap(a, b);
   }
   return best;
+}
+
+// Overlapping random spheres (d = 16 voxels, periodic, fixed seed) at porosity ~0.4 in an
+// n^3 box.
+flow::LbmDomain randomSpheres(std::int64_t n) {
+  flow::LbmDomain d;
+  d.dims = {n, n, n};
+  d.fluid.assign(static_cast<std::size_t>(n * n * n), 1);
+  d.periodic = {true, true, true};
+  const double rad = 8.0, vol = 4.0 / 3.0 * 3.14159265358979 * rad * rad * rad;
+  const std::int64_t count = std::llround(-std::log(0.4) * static_cast<double>(n * n * n) / vol);
+  std::uint64_t st = 2463534242ull;  // xorshift, fixed seed
+  auto next = [&]() {
+    st ^= st << 13, st ^= st >> 7, st ^= st << 17;
+    return static_cast<double>(st >> 11) / 9007199254740992.0 * static_cast<double>(n);
+  };
+  for (std::int64_t s2 = 0; s2 < count; ++s2) {
+    const double cz = next(), cy = next(), cx = next();
+    for (std::int64_t k = std::int64_t(cz - rad) - 1; k <= std::int64_t(cz + rad) + 1; ++k)
+      for (std::int64_t j = std::int64_t(cy - rad) - 1; j <= std::int64_t(cy + rad) + 1; ++j)
+        for (std::int64_t i = std::int64_t(cx - rad) - 1; i <= std::int64_t(cx + rad) + 1; ++i) {
+          const double dz = k - cz, dy = j - cy, dx = i - cx;
+          if (dz * dz + dy * dy + dx * dx >= rad * rad) continue;
+          const std::int64_t kk = (k % n + n) % n, jj = (j % n + n) % n, ii = (i % n + n) % n;
+          d.fluid[static_cast<std::size_t>((kk * n + jj) * n + ii)] = 0;
+        }
+  }
+  return d;
 }
 
 }  // namespace
@@ -155,43 +186,60 @@ int main(int argc, char** argv) {
                       (interp ? "Bouzidi linear with the exact sphere distance, d = exact"
                               : "halfway bounce-back, d = digitised-volume diameter");
   } else if (mode == "speed") {
-    flow::LbmDomain d;
+    // Two lattices: a simple-cubic unit cell (~60^3 box, 140 k cells, 21 MB of populations:
+    // inside this machine's L3) and 256^3 random spheres at porosity 0.4 (6.7 M cells,
+    // 1.5 GB: far beyond any cache), against a copy of 2 x 1 GiB.
+    flow::LbmDomain cell;
     double dia = 0;
-    test::scUnitCell(0.2, 40.0, d, &dia);  // ~ 60^3 box, 0.8 fluid: arrays >> cache
+    test::scUnitCell(0.2, 40.0, cell, &dia);
+    const std::int64_t bigN = argc > 3 ? std::atoll(argv[3]) : 256;
+    const flow::LbmDomain spheres = randomSpheres(bigN);
     json rows = json::array();
     for (int th : {1, 2}) {
-      const double bw = copyBandwidth(std::size_t(1) << 25, th);
-      for (flow::Precision p : {flow::Precision::Float, flow::Precision::Double}) {
-        flow::LbmOptions o;
-        o.force = 1e-6;
-        o.tolerance = 1e-30;
-        o.maxSteps = 100;
-        o.precision = p;
-        o.threads = th;
-        const double c0 = cpuSeconds();
-        const flow::LbmResult r = flow::runLbm(d, o);
-        const double cpu = cpuSeconds() - c0;
-        const double pop = p == flow::Precision::Float ? 4 : 8;
-        // Per update: 19 populations read + 19 written (+19 write-allocate reads), 18
-        // 4-byte pull indices, 1 flag byte.
-        const double bytes = 19 * pop * 3 + 18 * 4 + 1;
-        const double bound = bw / bytes / 1e6;
-        rows.push_back({{"threads", th},
-                        {"precision", p == flow::Precision::Float ? "float32" : "float64"},
-                        {"cells", r.fluidCells},
-                        {"mlups", r.mlups},
-                        {"cpu_s", cpu},
-                        {"wall_s", r.wallS},
-                        {"copy_gb_s", bw / 1e9},
-                        {"bytes_per_update", bytes},
-                        {"bound_mlups", bound},
-                        {"fraction_of_bound", r.mlups / bound}});
-        std::fprintf(stderr, "threads %d %s: %.1f MLUPS, copy %.2f GB/s, bound %.1f (%.0f %%)\n",
-                     th, p == flow::Precision::Float ? "float" : "double", r.mlups, bw / 1e9, bound,
-                     100 * r.mlups / bound);
+      const double bw = copyBandwidth(std::size_t(1) << 28, th);
+      for (const auto& [name, dom, steps] :
+           {std::tuple<const char*, const flow::LbmDomain*, int>{"sc_unit_cell", &cell, 100},
+            {"random_spheres", &spheres, 20}}) {
+        for (flow::Precision p : {flow::Precision::Float, flow::Precision::Double}) {
+          flow::LbmOptions o;
+          o.force = 1e-6;
+          o.tolerance = 1e-30;
+          o.maxSteps = steps;
+          o.checkInterval = steps;
+          o.precision = p;
+          o.threads = th;
+          const double c0 = cpuSeconds();
+          const flow::LbmResult r = flow::runLbm(*dom, o);
+          const double cpu = cpuSeconds() - c0;
+          const double pop = p == flow::Precision::Float ? 4 : 8;
+          // Per update: 19 populations read + 19 written (+19 write-allocate reads), 18
+          // 4-byte pull indices, 1 flag byte.
+          const double bytes = 19 * pop * 3 + 18 * 4 + 1;
+          const double bound = bw / bytes / 1e6;
+          rows.push_back({{"lattice", name},
+                          {"threads", th},
+                          {"precision", p == flow::Precision::Float ? "float32" : "float64"},
+                          {"cells", r.fluidCells},
+                          {"steps", r.steps},
+                          {"mlups", r.mlups},
+                          {"cpu_s", cpu},
+                          {"wall_s", r.wallS},
+                          {"copy_gb_s", bw / 1e9},
+                          {"bytes_per_update", bytes},
+                          {"bound_mlups", bound},
+                          {"fraction_of_bound", r.mlups / bound},
+                          {"load", load()}});
+          std::fprintf(stderr,
+                       "%s threads %d %s: %.1f MLUPS, copy %.2f GB/s, bound %.1f (%.0f %%)\n", name,
+                       th, p == flow::Precision::Float ? "float" : "double", r.mlups, bw / 1e9,
+                       bound, 100 * r.mlups / bound);
+        }
       }
     }
     out["rows"] = rows;
+    out["settings"] =
+        "copy of 2^28 floats, best of 5, 12 B per element; sc_unit_cell 100 steps, "
+        "random_spheres 20 steps; one run each";
   } else if (mode == "tau") {
     json rows = json::array();
     for (double tau : {0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 5.0}) {
@@ -233,30 +281,7 @@ int main(int argc, char** argv) {
     const double tau = argc > 5 ? std::atof(argv[5]) : 1.0;  // TRT: k does not depend on it
     json rows = json::array();
     for (std::int64_t n : sizes) {
-      flow::LbmDomain d;
-      d.dims = {n, n, n};
-      d.fluid.assign(static_cast<std::size_t>(n * n * n), 1);
-      d.periodic = {true, true, true};
-      const double rad = 8.0, vol = 4.0 / 3.0 * 3.14159265358979 * rad * rad * rad;
-      const std::int64_t count =
-          std::llround(-std::log(0.4) * static_cast<double>(n * n * n) / vol);
-      std::uint64_t st = 2463534242ull;  // xorshift, fixed seed
-      auto next = [&]() {
-        st ^= st << 13, st ^= st >> 7, st ^= st << 17;
-        return static_cast<double>(st >> 11) / 9007199254740992.0 * static_cast<double>(n);
-      };
-      for (std::int64_t s2 = 0; s2 < count; ++s2) {
-        const double cz = next(), cy = next(), cx = next();
-        for (std::int64_t k = std::int64_t(cz - rad) - 1; k <= std::int64_t(cz + rad) + 1; ++k)
-          for (std::int64_t j = std::int64_t(cy - rad) - 1; j <= std::int64_t(cy + rad) + 1; ++j)
-            for (std::int64_t i = std::int64_t(cx - rad) - 1; i <= std::int64_t(cx + rad) + 1;
-                 ++i) {
-              const double dz = k - cz, dy = j - cy, dx = i - cx;
-              if (dz * dz + dy * dy + dx * dx >= rad * rad) continue;
-              const std::int64_t kk = (k % n + n) % n, jj = (j % n + n) % n, ii = (i % n + n) % n;
-              d.fluid[static_cast<std::size_t>((kk * n + jj) * n + ii)] = 0;
-            }
-      }
+      flow::LbmDomain d = randomSpheres(n);
       flow::LbmOptions o;
       o.tauPlus = tau;
       o.force = 1e-6;
