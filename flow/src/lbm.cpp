@@ -27,6 +27,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 #include "d3q19.hpp"
 #include "voxpack/core/errors.hpp"
@@ -88,7 +89,7 @@ constexpr double kWPair[10] = {0,        1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 36,
                                1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
 
 template <class T>
-__attribute__((target_clones("avx2", "default"))) void stepRange(
+__attribute__((always_inline)) inline void stepRangeBody(
     const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
     const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
     int axis, BlockSums* sums) {
@@ -173,6 +174,21 @@ __attribute__((target_clones("avx2", "default"))) void stepRange(
   }
 }
 
+// The body compiled twice per precision, for AVX2 and the baseline, picked at load time
+// (GCC and clang take target_clones on plain functions only, not on templates).
+__attribute__((target_clones("avx2", "default"))) void stepRangeFloat(
+    const float* fin, float* fout, const std::uint32_t* src, const std::uint8_t* inSample,
+    const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
+    int axis, BlockSums* sums) {
+  stepRangeBody(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+}
+__attribute__((target_clones("avx2", "default"))) void stepRangeDouble(
+    const double* fin, double* fout, const std::uint32_t* src, const std::uint8_t* inSample,
+    const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
+    int axis, BlockSums* sums) {
+  stepRangeBody(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+}
+
 template <class T>
 class Solver {
  public:
@@ -215,8 +231,12 @@ class Solver {
       const std::size_t end = std::min(n_, begin + kBlock);
       const WallLink* l0 = links_.data() + linkStart_[static_cast<std::size_t>(bi)];
       const WallLink* l1 = links_.data() + linkStart_[static_cast<std::size_t>(bi) + 1];
-      stepRange(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
-                total ? &part[static_cast<std::size_t>(bi)] : nullptr);
+      if constexpr (std::is_same_v<T, float>)
+        stepRangeFloat(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
+                       total ? &part[static_cast<std::size_t>(bi)] : nullptr);
+      else
+        stepRangeDouble(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
+                        total ? &part[static_cast<std::size_t>(bi)] : nullptr);
     }
     a_.swap(b_);
     if (total) {
