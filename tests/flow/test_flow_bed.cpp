@@ -172,6 +172,25 @@ TEST(FlowBed, CorrelationsReduceToTheirKnownForms) {
   EXPECT_NEAR(Correlations::kozenyCarman(0.4, 1.0), 0.064 / (180 * 0.36), 1e-15);
 }
 
+// The correlations' d comes from the particle table when every particle is the same sphere
+// or cylinder: 6V/S = 3 d l / (2 l + d) for a cylinder (2 x 1 mm: 1.5 mm); mixed shapes fall
+// back to the measured surface.
+TEST(FlowBed, SauterDiameterFromTheParticleTable) {
+  Bed bed = emptyColumn(6, 12, 5.0, 0.5);
+  bed.indicator(3, 6, 6) = 0;  // one solid voxel, so the measured surface is not empty
+  bed.particles.positionMm = {Vec3(0, 0, 1), Vec3(0, 0, 2)};
+  bed.particles.shape = {"cylinder:d=2,l=1", "cylinder:d=2,l=1"};
+  FlowOptions o = quick();
+  o.lbm.maxSteps = 50;
+  const FlowReport cyl = computeFlow(bed, o, {});
+  EXPECT_NEAR(cyl.json["particle_diameter_mm"].get<double>(), 1.5, 1e-12);
+  EXPECT_EQ(cyl.json["particle_diameter_source"], "particle table: 6V/S of its cylinder");
+  bed.particles.shape = {"sphere:d=3", "sphere:d=3"};
+  EXPECT_NEAR(computeFlow(bed, o, {}).json["particle_diameter_mm"].get<double>(), 3.0, 1e-12);
+  bed.particles.shape = {"sphere:d=3", "cylinder:d=2,l=1"};
+  EXPECT_EQ(computeFlow(bed, o, {}).json["particle_diameter_source"], "Sauter 6(1-eps)/S_v");
+}
+
 TEST(FlowBed, CropKeepsTheSelectedLayers) {
   Bed bed = emptyColumn(10, 8, 3.0, 0.5);
   bed.indicator(4, 3, 3) = 0;
