@@ -196,13 +196,10 @@ class IngestCommand final : public Command {
     } catch (const Error&) {
       // Not read here: the in-memory reader below reports the problem as it always has.
     }
-    // The polarity the pipeline will use, when the header tells it (pipeline.cpp's rule).
-    if (o_.voidPolarity != VoidPolarity::Auto) {
-      voidBright_ = o_.voidPolarity == VoidPolarity::Bright;
-    } else if (header) {
-      const auto it = header->info.metadata.find("voxpack_void");
-      voidBright_ = it != header->info.metadata.end() && it->second == "bright";
-    }
+    // The polarity the pipeline will use, when the options or the header tell it.
+    if (o_.voidPolarity != VoidPolarity::Auto || header)
+      voidBright_ = resolveVoidBright(
+          o_.voidPolarity, header ? header->info.metadata : std::map<std::string, std::string>{});
     if (comm.size() > 1) {
       // Under mpirun the ranks share the streamed path's slabs; the in-memory pipeline
       // would run whole on every rank.

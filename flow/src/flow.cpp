@@ -8,6 +8,7 @@
 
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
+#include "voxpack/core/spec.hpp"
 #include "voxpack/core/version.hpp"
 
 namespace voxpack::flow {
@@ -152,34 +153,25 @@ double wallDistanceVox(const Column& col, const std::array<std::int64_t, 3>& d, 
                    static_cast<double>(d[static_cast<std::size_t>(a2)]) - x2});
 }
 
-// The value of `key` in a shape spec "kind:key=value,key=value"; 0 when absent.
-double specValue(const std::string& spec, const std::string& key) {
-  std::size_t at = spec.find(':');
-  while (at != std::string::npos) {
-    const std::size_t start = at + 1, end = spec.find(',', start);
-    const std::string item = spec.substr(start, end == std::string::npos ? end : end - start);
-    if (item.rfind(key + "=", 0) == 0) return std::atof(item.c_str() + key.size() + 1);
-    at = end;
-  }
-  return 0;
-}
-
 // The Sauter diameter 6V/S of the particles when the table holds one sphere ("sphere:d=")
 // or cylinder ("cylinder:d=,l=") shape for every particle; 0 otherwise (mixed, meshes,
 // no table). The surface measured on the voxels reads low at 10-20 voxels per d, so the
 // exact shape is the better d for the correlations (docs/flow.md).
 double sauterDiameterFromTable(const Bed& bed, std::string& kind) {
   double d = 0;
-  for (const std::string& s : bed.particles.shape) {
+  for (const std::string& text : bed.particles.shape) {
     double v = 0;
-    if (s.rfind("sphere:", 0) == 0) {
-      v = specValue(s, "d");
-      kind = "sphere";
-    } else if (s.rfind("cylinder:", 0) == 0) {
-      const double dc = specValue(s, "d"), l = specValue(s, "l");
-      v = dc > 0 && l > 0 ? 3.0 * dc * l / (2.0 * l + dc)
-                          : 0;  // 6 (pi d^2 l / 4) / (pi d l + pi d^2 / 2)
-      kind = "cylinder";
+    try {
+      const ParsedSpec s = parseSpec(text, "particle shape");
+      if (s.name == "sphere") {
+        v = s.positive("d");
+      } else if (s.name == "cylinder") {
+        const double dc = s.positive("d"), l = s.positive("l");
+        v = 3.0 * dc * l / (2.0 * l + dc);  // 6 (pi d^2 l / 4) / (pi d l + pi d^2 / 2)
+      }
+      kind = s.name;
+    } catch (const InputError&) {
+      return 0;
     }
     if (!(v > 0) || (d > 0 && std::abs(v - d) > 1e-9 * d)) return 0;
     d = v;

@@ -84,9 +84,6 @@ inline Moments moments(const double* f, const double* force) {
 // arithmetic in the same order (no FMA: -ffp-contract=off), so the result is the same
 // bits as a cell-by-cell loop, and the reductions are added in cell order.
 constexpr int kLanes = 8;
-// w_q of the pairs q = 1..9 (index 0 unused).
-constexpr double kWPair[10] = {0,        1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 36,
-                               1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
 
 template <class T>
 __attribute__((always_inline)) inline void stepRangeBody(
@@ -149,7 +146,7 @@ __attribute__((always_inline)) inline void stepRangeBody(
 #pragma GCC unroll 9
       for (int q = 1; q <= 9; ++q) {
         const int qb = q + 9;
-        const double w = kWPair[q];
+        const double w = kW[q];
         const double eqp = w * (drho + rho * (4.5 * cu[q] * cu[q] - 1.5 * uu));
         const double eqm = w * rho * 3.0 * cu[q];
         const double sp = w * (9.0 * cu[q] * cf[q] - 3.0 * uF);

@@ -81,6 +81,24 @@ double seconds(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+bool resolveVoidBright(VoidPolarity polarity, const std::map<std::string, std::string>& metadata,
+                       std::string* source) {
+  auto say = [&](const char* why) {
+    if (source) *source = why;
+  };
+  if (polarity != VoidPolarity::Auto) {
+    say("option");
+    return polarity == VoidPolarity::Bright;
+  }
+  const auto it = metadata.find("voxpack_void");
+  if (it != metadata.end() && (it->second == "bright" || it->second == "dark")) {
+    say("file header voxpack_void");
+    return it->second == "bright";
+  }
+  say("default (dark, as in XMT)");
+  return false;
+}
+
 IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, Progress& progress) {
   if (o.maxSpeckVoxels > (std::size_t{1} << 40) || o.maxHoleVoxels > (std::size_t{1} << 40))
     throw UsageError("speck/hole sizes are out of range");
@@ -91,20 +109,10 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
 
   // Polarity: the user's word, else the header key a voxpack phantom writes, else XMT's
   // convention (pores are air, the darkest phase).
-  bool voidBright = false;
-  std::string polaritySource = "option";
-  if (o.voidPolarity == VoidPolarity::Auto) {
-    const auto it = volume.info.metadata.find("voxpack_void");
-    if (it != volume.info.metadata.end() && (it->second == "bright" || it->second == "dark")) {
-      voidBright = it->second == "bright";
-      polaritySource = "file header voxpack_void";
-    } else {
-      polaritySource = "default (dark, as in XMT)";
-      progress.message("void phase assumed dark (XMT); pass --void bright for MRI water");
-    }
-  } else {
-    voidBright = o.voidPolarity == VoidPolarity::Bright;
-  }
+  std::string polaritySource;
+  const bool voidBright = resolveVoidBright(o.voidPolarity, volume.info.metadata, &polaritySource);
+  if (polaritySource.rfind("default", 0) == 0)
+    progress.message("void phase assumed dark (XMT); pass --void bright for MRI water");
 
   const bool wantVolume =
       o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;

@@ -6,6 +6,7 @@
 
 #include "voxpack/ingest/ingest.hpp"
 #include "voxpack/ingest/resample.hpp"
+#include "voxpack/ingest/segment.hpp"
 
 namespace voxpack::ingest {
 
@@ -120,8 +121,7 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
   // Richardson-Lucy (ITK): the image, its iterates and the FFT buffers of the padded box;
   // 63.5 B/voxel measured at 256³ with the image (67.3 with the raw copy).
   if (o.deconvolveIterations > 0) perOut = std::max<std::uint64_t>(perOut, 64 + raw);
-  const std::uint64_t search =
-      16 * (std::min<std::uint64_t>(m, std::max(o.maxSpeckVoxels, o.maxHoleVoxels)) + 6);
+  const std::uint64_t search = cleanupSearchBytes(std::max(o.maxSpeckVoxels, o.maxHoleVoxels), m);
   peak = std::max(peak, perOut * m + search);
   // Calibration holds the bed (2 B) beside a phantom (8 B with the bias field) and the
   // same pipeline run on it.

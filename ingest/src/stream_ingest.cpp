@@ -186,7 +186,7 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
   // (3 B). Per plane: the z-chord state (9 B x 2 regions) and one raw plane buffer (8 B).
   const std::uint64_t perRead = std::max<std::uint64_t>(8, 3);
   const std::uint64_t search =
-      16 * (std::min<std::uint64_t>(read * plane, std::max(o.maxSpeckVoxels, o.maxHoleVoxels)) + 6);
+      cleanupSearchBytes(std::max(o.maxSpeckVoxels, o.maxHoleVoxels), read * plane);
   std::uint64_t bytes =
       perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
   // The first pass's exact value histogram (hash map node + bucket) and Otsu's bins.

@@ -91,22 +91,21 @@ LengthDistribution summarizeCountedLengths(const std::vector<double>& values,
 
 std::array<bool, 3> windowCutAxes(const Bed& bed) {
   const Lattice& l = bed.lattice();
-  const std::int64_t n[3] = {l.nz(), l.ny(), l.nx()};
-  std::array<bool, 3> cut{false, false, false};
-  for (std::int64_t k = 0; k < n[0]; ++k)
-    for (std::int64_t j = 0; j < n[1]; ++j)
-      for (std::int64_t i = 0; i < n[2]; ++i) {
-        const bool face[3] = {k == 0 || k == n[0] - 1, j == 0 || j == n[1] - 1,
-                              i == 0 || i == n[2] - 1};
-        if (!face[0] && !face[1] && !face[2]) {
-          i = n[2] - 2;  // jump to the far x face
-          continue;
-        }
-        const std::size_t o = l.offset(k, j, i);
-        if (bed.indicator[o] == 0 || (bed.mask && (*bed.mask)[o] == 0)) continue;
-        for (int a = 0; a < 3; ++a) cut[static_cast<std::size_t>(a)] |= face[a];
-      }
-  return cut;
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  const std::uint8_t* ind = bed.indicator.data();
+  const std::uint8_t* msk = bed.mask ? bed.mask->data() : nullptr;
+  // The y and x faces plane by plane, as the streamed path marks them; z: the end planes.
+  std::vector<std::uint64_t> faceY(static_cast<std::size_t>(nz)), faceX(faceY.size());
+  markFaceVoid(ind, msk, nz, ny, nx, 0, faceY, faceX);
+  auto planeHasVoid = [&](std::int64_t k) {
+    for (std::size_t o = l.offset(k, 0, 0), e = o + static_cast<std::size_t>(ny * nx); o < e; ++o)
+      if (ind[o] != 0 && (!msk || msk[o] != 0)) return true;
+    return false;
+  };
+  auto any = [](const std::vector<std::uint64_t>& v) {
+    return std::any_of(v.begin(), v.end(), [](std::uint64_t x) { return x != 0; });
+  };
+  return {nz > 0 && (planeHasVoid(0) || planeHasVoid(nz - 1)), any(faceY), any(faceX)};
 }
 
 namespace {
@@ -116,8 +115,7 @@ namespace {
 MesSums scanInChunks(const Bed& bed, const MesGeometry& g, double binWidthMm, int threads,
                      Progress& progress, MesField* field) {
   const Lattice& l = bed.lattice();
-  const double voxel = std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
-  MesSums sums(voxel, binWidthMm > 0 ? binWidthMm : voxel, latticeDirections().size());
+  MesSums sums(l, binWidthMm);
   const std::int64_t nz = l.nz(), t = mesInMemoryChunkPlanes(l.nz(), l.ny(), l.nx());
   const auto plane = static_cast<std::size_t>(l.ny() * l.nx());
   if (field) {

@@ -5,19 +5,15 @@
 #include <chrono>
 
 #include "mes_window.hpp"
+#include "stream_plan.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/stats/streamed.hpp"
 
 namespace voxpack::stats {
 namespace {
-
-std::uint64_t u(std::int64_t v) { return static_cast<std::uint64_t>(std::max<std::int64_t>(v, 0)); }
-
-// Planned with 1/32 to spare, as the other streamed passes (HDF5's chunk cache, slack).
-bool fitsWithHeadroom(const MemoryBudget& budget, std::uint64_t bytes) {
-  return budget.fits(bytes + bytes / 32);
-}
-
+using stream_plan::fitsWithHeadroom;
+using stream_plan::Slabs;
+using stream_plan::u;
 }  // namespace
 
 std::uint64_t estimateMesStreamedBytes(const BedHeader& h, const VoxelBox& region,
@@ -79,19 +75,14 @@ MesResult meanEmptySpaceStreamed(const BedSlabReader& reader, const VoxelBox& re
                                  const MesGeometry& g, const MesStreamPlan& plan, double binWidthMm,
                                  int threads, Progress& progress, const Communicator& comm) {
   const auto t0 = std::chrono::steady_clock::now();
-  const Lattice& l = g.lattice;
-  const double voxel = std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]});
-  MesSums sums(voxel, binWidthMm > 0 ? binWidthMm : voxel, latticeDirections().size());
-  const std::int64_t nz = region.dims[0], t = std::max<std::int64_t>(1, plan.slabPlanes);
-  // The same slab boundaries for any rank count; rank r owns a contiguous block of slabs.
-  const std::int64_t count = (nz + t - 1) / t;
-  const std::int64_t first = count * comm.rank() / comm.size();
-  const std::int64_t last = count * (comm.rank() + 1) / comm.size();
-  SlabProgress sp(progress, "mean empty space", last - first, "stats");
+  MesSums sums(g.lattice, binWidthMm);
+  const std::int64_t nz = region.dims[0];
+  const Slabs slabs(nz, plan.slabPlanes, comm);
+  SlabProgress sp(progress, "mean empty space", slabs.last - slabs.first, "stats");
   NullProgress quiet;
-  for (std::int64_t s = first; s < last; ++s) {
-    sp.step(s - first);
-    const std::int64_t z0 = s * t, z1 = std::min(nz, z0 + t);
+  for (std::int64_t s = slabs.first; s < slabs.last; ++s) {
+    sp.step(s - slabs.first);
+    const std::int64_t z0 = s * slabs.planes, z1 = std::min(nz, z0 + slabs.planes);
     const std::int64_t w0 = std::max<std::int64_t>(0, z0 - plan.haloPlanes);
     const std::int64_t w1 = std::min(nz, z1 + plan.haloPlanes);
     const VoxelBox box{{region.first[0] + w0, region.first[1], region.first[2]},
@@ -107,7 +98,7 @@ MesResult meanEmptySpaceStreamed(const BedSlabReader& reader, const VoxelBox& re
     w.ownLast = z1 - w0;
     scanMesWindow(w, g, threads, sums, quiet);
   }
-  sp.step(last - first);
+  sp.step(slabs.last - slabs.first);
   sums.reduce(comm);
   MesResult r = sums.finish(g);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -72,6 +72,12 @@ MesGeometry mesGeometry(const Lattice& l, const std::array<bool, 3>& cutAxes) {
 MesSums::MesSums(double voxelMm, double binWidthMm, std::size_t directions)
     : voxelMm_(voxelMm), binWidthMm_(binWidthMm), chords_(directions) {}
 
+MesSums::MesSums(const Lattice& l, double binWidthMm)
+    : MesSums(
+          std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}),
+          binWidthMm > 0 ? binWidthMm : std::min({l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}),
+          latticeDirections().size()) {}
+
 // Out of range marks the sums (finish throws): this runs inside parallel loops.
 MesSums::Fixed MesSums::fixed(double value) {
   const double s = std::nearbyint(std::ldexp(value, kFractionBits));

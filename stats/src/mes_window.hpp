@@ -33,6 +33,9 @@ class MesSums {
  public:
   /// Sums for values histogrammed in bins of `binWidthMm`, lengths scaled by `voxelMm`.
   MesSums(double voxelMm, double binWidthMm, std::size_t directions);
+  /// Sums for `lattice`'s 13 directions, scaled by its smallest spacing, in bins of
+  /// `binWidthMm` (<= 0: one smallest spacing).
+  MesSums(const Lattice& lattice, double binWidthMm);
   /// A void voxel inside the mask whose m(x) is `meanMm` with weight `weight` (NaN = cut).
   void addVoxel(float meanMm, float weight);
   /// `n` uncut chords of `length` voxels along direction `d`.

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "mes_window.hpp"
+#include "stream_plan.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/stats/s2.hpp"
@@ -21,7 +22,9 @@ namespace {
 using nlohmann::json;
 using Dims = std::array<std::int64_t, 3>;
 
-std::uint64_t u(std::int64_t v) { return static_cast<std::uint64_t>(std::max<std::int64_t>(v, 0)); }
+using stream_plan::fitsWithHeadroom;
+using stream_plan::Slabs;
+using stream_plan::u;
 
 std::set<std::string> requested(const StatsOptions& o) {
   return o.only.empty() ? statisticNames() : o.only;
@@ -36,28 +39,9 @@ std::uint64_t lagGridBytes(const Dims& h) {
   return u(2 * h[0] + 1) * u(2 * h[1] + 1) * u(2 * h[2] + 1) * 8;
 }
 
-// Slabs [s T, min((s+1) T, n)) and the contiguous block of them a rank owns: the slab
-// boundaries do not depend on the number of ranks.
-struct Slabs {
-  std::int64_t planes = 1, count = 0, first = 0, last = 0;  // this rank: [first, last)
-  Slabs(std::int64_t n, std::int64_t t, const Communicator& comm)
-      : planes(std::max<std::int64_t>(1, t)) {
-    count = (n + planes - 1) / planes;
-    first = count * comm.rank() / comm.size();
-    last = count * (comm.rank() + 1) / comm.size();
-  }
-};
-
 VoxelBox planes(const VoxelBox& region, std::int64_t z0, std::int64_t z1) {
   return VoxelBox{{region.first[0] + z0, region.first[1], region.first[2]},
                   {z1 - z0, region.dims[1], region.dims[2]}};
-}
-
-// Slabs are planned with 1/32 (3 %) of the estimate to spare, for what it does not model
-// (HDF5's chunk cache, allocator slack): at 2048³ under 6 GiB the peak RSS came 0.5 %
-// above the estimate (bench/results/scale_big_2048.json).
-bool fitsWithHeadroom(const MemoryBudget& budget, std::uint64_t bytes) {
-  return budget.fits(bytes + bytes / 32);
 }
 
 // ChordRuns: head and open run (2 x uint32) and a flag per column, the carry (uint64) per

@@ -6,8 +6,10 @@
 /// optional labels and calibration, with a provenance record (docs/ingest.md).
 
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <string>
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/memory.hpp"
@@ -67,6 +69,12 @@ struct ImageQuality {
   double voxelMm = 0;            ///< in-plane voxel size, mm
   double voxelsPerDiameter = 0;  ///< sphere-equivalent particle diameter 6V/S in voxels
 };
+
+/// The void polarity the pipeline uses: the option; under Auto the header key voxpack_void
+/// ("bright" or "dark", as a phantom writes it); else dark, as in XMT. `source` (optional)
+/// names which.
+bool resolveVoidBright(VoidPolarity polarity, const std::map<std::string, std::string>& metadata,
+                       std::string* source = nullptr);
 
 /// Resident memory of `voxpack ingest` before any volume is read (code, ITK, HDF5 and the
 /// other libraries, heap arenas): measured on a 2³ NRRD (docs/scale.md).

@@ -4,6 +4,7 @@
 /// global threshold (Otsu, two-class k-means or a given value), polarity, and clean-up of
 /// specks and of small holes inside particles.
 
+#include <algorithm>
 #include <cstdint>
 
 #include "voxpack/core/grid.hpp"
@@ -31,5 +32,11 @@ std::size_t removeSmallComponents(Grid<std::uint8_t>& indicator, std::uint8_t ph
 std::size_t removeSmallComponents(Grid<std::uint8_t>& indicator, std::uint8_t phase,
                                   std::size_t maxVoxels, std::int64_t countZ0,
                                   std::int64_t countZ1);
+
+/// Bytes the search of removeSmallComponents holds at most on a grid of `voxels`: its stack
+/// and member list, maxVoxels + 6 offsets each (the marks, 1 B per voxel, not included).
+inline std::uint64_t cleanupSearchBytes(std::size_t maxVoxels, std::uint64_t voxels) {
+  return 16 * (std::min<std::uint64_t>(voxels, maxVoxels) + 6);
+}
 
 }  // namespace voxpack::ingest
