@@ -105,5 +105,31 @@ TEST(DemBed, TappingCompactsA200ParticleBed) {
   EXPECT_GT(drop, 0.02);
 }
 
+// Rain height 0 pours every particle at once from one cloud at the rain fraction (the peer
+// LIGGGHTS's insert/pack): all are present after the first check, and the cloud is as tall
+// as that fraction needs. The default rain zone (4 d at 0.3) holds fewer than all of them.
+TEST(DemBed, RainHeightZeroPoursOneCloud) {
+  const double d = 3.0, columnD = 12.0;
+  const int count = 40;
+  DemOptions o;
+  o.maxTimeS = 0.004;  // two driver checks: the first batch only
+  const DemScene s = column(std::make_shared<TestFastSphere>(d), columnD, count, 3);
+  const DemResult rain = runDem(s, o, nullProgress());
+  o.rainHeightDiameters = 0;
+  o.rainVolumeFraction = 0.2;
+  const DemResult cloud = runDem(s, o, nullProgress());
+  EXPECT_LT(rain.particles.size(), static_cast<std::size_t>(count));
+  ASSERT_EQ(cloud.particles.size(), static_cast<std::size_t>(count));
+  const double area = kPi * columnD * columnD / 4, v = kPi * d * d * d / 6;
+  const double height = count * v / (0.2 * area) + d;
+  double top = 0;
+  for (const auto& p : cloud.particles.positionMm) top = std::max(top, p.z());
+  EXPECT_GT(top, 0.6 * height);
+  EXPECT_LT(top, height);
+  EXPECT_TRUE(std::any_of(cloud.messages.begin(), cloud.messages.end(), [](const std::string& m) {
+    return m.find("one cloud") != std::string::npos;
+  }));
+}
+
 }  // namespace
 }  // namespace voxpack::test

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <iterator>
 
 #include "system_impl.hpp"
 
@@ -37,42 +36,46 @@ void DemSystem::Impl::rebuildNeighbours() {
     keys[i] = {pack(c[0], c[1], c[2]), static_cast<std::uint32_t>(i)};
   }
   std::sort(keys.begin(), keys.end());
-  // Pairs found in parallel over i; the sort below makes the list the same for any
-  // thread count.
-  std::vector<Pair> fresh;
+  // Pairs found in parallel over i as (i << 32 | j); the sort below makes the list the
+  // same for any thread count. The key keeps x in its low bits, so the three cells x-1..x+1
+  // of one (y, z) row are one key range: nine searches a particle, not 27.
+  std::vector<std::uint64_t> found;
   const int nt = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
 #pragma omp parallel num_threads(nt)
   {
-    std::vector<Pair> local;
+    std::vector<std::uint64_t> local;
 #pragma omp for schedule(static)
     for (std::int64_t si = 0; si < static_cast<std::int64_t>(n); ++si) {
       const std::size_t i = static_cast<std::size_t>(si);
       const auto c = cellIndex(x[i]);
       const double ri = tmpl[tid[i]].radiusMm;
       for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const std::uint64_t key = pack(c[0] + dx, c[1] + dy, c[2] + dz);
-            auto it =
-                std::lower_bound(keys.begin(), keys.end(), std::make_pair(key, std::uint32_t{0}));
-            for (; it != keys.end() && it->first == key; ++it) {
-              const std::uint32_t j = it->second;
-              if (j <= i) continue;
-              const double reach = ri + tmpl[tid[j]].radiusMm + skin;
-              if ((x[i] - x[j]).squaredNorm() < reach * reach)
-                local.push_back({static_cast<std::uint32_t>(i), j, Vec3::Zero(), NodeList{}});
-            }
+        for (int dy = -1; dy <= 1; ++dy) {
+          const std::uint64_t first = pack(c[0] - 1, c[1] + dy, c[2] + dz);
+          const std::uint64_t last = pack(c[0] + 1, c[1] + dy, c[2] + dz);
+          auto it =
+              std::lower_bound(keys.begin(), keys.end(), std::make_pair(first, std::uint32_t{0}));
+          for (; it != keys.end() && it->first <= last; ++it) {
+            const std::uint32_t j = it->second;
+            if (j <= i) continue;
+            const double reach = ri + tmpl[tid[j]].radiusMm + skin;
+            if ((x[i] - x[j]).squaredNorm() < reach * reach)
+              local.push_back(static_cast<std::uint64_t>(i) << 32 | j);
           }
+        }
     }
 #pragma omp critical
-    fresh.insert(fresh.end(), std::make_move_iterator(local.begin()),
-                 std::make_move_iterator(local.end()));
+    found.insert(found.end(), local.begin(), local.end());
   }
-  std::sort(fresh.begin(), fresh.end(),
-            [](const Pair& a, const Pair& b) { return a.i != b.i ? a.i < b.i : a.j < b.j; });
-  // Carry the tangential springs of surviving pairs over (both lists are sorted).
+  std::sort(found.begin(), found.end());
+  // Carry the tangential springs and node lists of surviving pairs over (both sorted).
+  std::vector<Pair> fresh(found.size());
   std::size_t o = 0;
-  for (Pair& p : fresh) {
+  for (std::size_t f = 0; f < found.size(); ++f) {
+    Pair& p = fresh[f];
+    p.i = static_cast<std::uint32_t>(found[f] >> 32);
+    p.j = static_cast<std::uint32_t>(found[f] & 0xffffffffu);
+    p.xi = Vec3::Zero();
     while (o < pairs.size() && (pairs[o].i < p.i || (pairs[o].i == p.i && pairs[o].j < p.j))) ++o;
     if (o < pairs.size() && pairs[o].i == p.i && pairs[o].j == p.j) {
       p.xi = pairs[o].xi;

@@ -43,14 +43,6 @@ Vec3 relativeVelocity(const Body& a, const Body& b, const Vec3& p) {
 
 }  // namespace
 
-double ContactLaw::zetaFor(double p) const {
-  const double top = static_cast<double>(zeta.size() - 1);
-  const double u = std::clamp((p - 1.0) / 0.25, 0.0, top);
-  const int i = std::min(static_cast<int>(top) - 1, static_cast<int>(u));
-  const double f = u - i;
-  return (1 - f) * zeta[static_cast<std::size_t>(i)] + f * zeta[static_cast<std::size_t>(i) + 1];
-}
-
 ContactLaw ContactLaw::calibrated(double friction, double restitution) {
   ContactLaw law;
   law.friction = friction;
@@ -160,7 +152,9 @@ ContactOut DemSystem::Impl::closedContact(double volume, double area, double dep
   spring *= scale;
   out.elastic = spring * depth / 3;  // integral of F ~ delta^2
   const double zetaC = law.zetaFor(kSum * depth / spring);
-  const double mStar = 1.0 / (a.inverseMassAlong(cp, n) + b.inverseMassAlong(cp, n));
+  // Closed-form contacts (sphere-sphere, sphere-wall) push along the line of centres: no
+  // turn, so the effective mass is the translational one.
+  const double mStar = 1.0 / (a.invMass + b.invMass);
   const double eta = 2 * zetaC * std::sqrt(mStar * kSum);
   const double fn = std::max(0.0, spring - eta * relativeVelocity(a, b, cp).dot(n));
   out.force = fn * n;

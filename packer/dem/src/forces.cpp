@@ -19,9 +19,13 @@ void DemSystem::Impl::computeForces() {
 #pragma omp parallel for num_threads(particleThreads) schedule(static)
   for (std::int64_t si = 0; si < sn; ++si) {
     const auto i = static_cast<std::size_t>(si);
+    // A sleeping particle keeps its pose and has no spin (sleepUpdate zeroed both rates),
+    // so its rotation and rate stay as they were when it fell asleep.
+    if (!awake[i] && i < rotCurrent) continue;
     rot[i] = q[i].toRotationMatrix();
     omegaW[i] = worldRate(rot[i], L[i], tmpl[tid[i]].inertiaG);
   }
+  rotCurrent = n;
   std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
   const std::int64_t np = static_cast<std::int64_t>(pairs.size());
   // Small systems run serial: a parallel region costs more than it saves there, and far
@@ -34,7 +38,7 @@ void DemSystem::Impl::computeForces() {
     for (std::int64_t pi = 0; pi < np; ++pi) {
       Pair& p = pairs[static_cast<std::size_t>(pi)];
       PairOut& po = pairOut[static_cast<std::size_t>(pi)];
-      po = PairOut{};
+      po.evaluated = false;  // the contact is read only when evaluated
       if (!awake[p.i] && !awake[p.j]) continue;
       const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
       if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) continue;

@@ -38,6 +38,9 @@ void DemSystem::Impl::drift() {
     const std::size_t i = static_cast<std::size_t>(si);
     if (!awake[i]) continue;
     x[i] += dt * v[i];
+    // A closed-form sphere's orientation changes neither its contacts nor its voxels; its
+    // spin lives in L alone (friction reads it), so the rotation is not integrated.
+    if (closedForm[tid[i]]) continue;
     // Rotation with fixed angular momentum: midpoint body rate, principal axes.
     const Vec3& inertia = tmpl[tid[i]].inertiaG;
     Quat mid;

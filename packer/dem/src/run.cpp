@@ -75,8 +75,9 @@ nlohmann::json runIdentity(const DemScene& scene, const DemOptions& options, con
 
 }  // namespace
 
-DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& progress,
+DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& progress,
                  const DemCheckpointing& checkpointing) {
+  DemOptions options = requested;
   const auto wallStart = std::chrono::steady_clock::now();
   if (scene.shapes.empty()) throw InputError("dem: no shape");
   if (!scene.container) throw InputError("dem: no container");
@@ -147,6 +148,12 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   // The auto stiffness follows the weight of the whole bed, the starting one included.
   double bedHeight = (static_cast<double>(count) * vMean + initialVolume) / (0.6 * area);
   if (resume) bedHeight = resume->at("identity").value("bed_height_mm", -1.0);
+  // Rain height 0: one batch, a cloud tall enough to hold every particle at the rain
+  // fraction (as LIGGGHTS's insert/pack fills its region); its height in d is then what the
+  // run reports and what sizes the deepest impact for the stiffness ceiling.
+  if (options.rainHeightDiameters == 0)
+    options.rainHeightDiameters =
+        (static_cast<double>(count) * vMean / (options.rainVolumeFraction * area) + dMax) / dMax;
 
   DemSystem sys(templates, scene.container, options);
   DemResult result;
@@ -161,6 +168,8 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     std::ostringstream m;
     m << "dem: " << count << " particles";
     if (initialCount > 0) m << " poured onto " << initialCount << " of the starting bed";
+    if (requested.rainHeightDiameters == 0)
+      m << " from one cloud " << options.rainHeightDiameters * dMax << " mm tall";
     m << ", face stiffness " << sys.stiffnessNPerMm3() << " N/mm^3, contact time t_c "
       << sys.contactTimeS() << " s, time step " << dt << " s (t_c/" << sys.contactTimeS() / dt
       << "), nodes per particle " << templates.front().nodeP.size();
@@ -171,6 +180,8 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
   const double g = options.gravityMmPerS2;
   const double keLimit = options.settleKinetic * massMean * std::max(g, 1.0) * dMax;
   const double vLimit = options.settleVelocity * std::sqrt(std::max(g, 1.0) * dMax);
+  const double settleSpeed = options.settleSpeed < 0 ? options.settleVelocity : options.settleSpeed;
+  const double vSettle = settleSpeed * std::sqrt(std::max(g, 1.0) * dMax);
   const double zoneHeight = std::max(options.rainHeightDiameters * dMax, 2.2 * rMax);
   const std::int64_t batch = std::max<std::int64_t>(
       1, static_cast<std::int64_t>(options.rainVolumeFraction * area * zoneHeight / vMean));
@@ -296,7 +307,7 @@ DemResult runDem(const DemScene& scene, const DemOptions& options, Progress& pro
     if (inserted >= count && !sys.wallMoving()) {
       double vMax = 0, ke = 0;
       sys.motionMeasures(vMax, ke);
-      if (ke < keLimit && vMax < vLimit) {
+      if (ke < keLimit && (settleSpeed == 0 || vMax < vSettle)) {
         if (!tapped && options.tapCycles > 0) {
           result.settleTimeS = t;
           sys.setWallMotion(t, options.tapCycles);

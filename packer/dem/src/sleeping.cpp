@@ -44,7 +44,7 @@ void DemSystem::Impl::sleepUpdate() {
       const auto i = static_cast<std::size_t>(si);
       if (!awake[i]) continue;
       const ParticleTemplate& tp = tmpl[tid[i]];
-      const double spin = worldRate(q[i].toRotationMatrix(), L[i], tp.inertiaG).norm();
+      const double spin = worldRate(rot[i], L[i], tp.inertiaG).norm();  // rot: this step's pose
       const double speed = v[i].norm() + spin * tp.radiusMm;
       fast[i] = speed >= vWake ? 1 : 0;
     }
@@ -72,6 +72,7 @@ void DemSystem::Impl::sleepUpdate() {
           awake[i] = 0;
           v[i].setZero();
           L[i].setZero();
+          omegaW[i].setZero();
         } else {
           restartWindow(i);
         }

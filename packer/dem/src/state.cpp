@@ -87,6 +87,7 @@ json toJson(const DemOptions& o) {
           {"sleep_time_s", o.sleepTimeS},
           {"settle_kinetic", o.settleKinetic},
           {"settle_velocity", o.settleVelocity},
+          {"settle_speed", o.settleSpeed},
           {"max_time_s", o.maxTimeS},
           {"rain_height_d", o.rainHeightDiameters},
           {"rain_volume_fraction", o.rainVolumeFraction},
@@ -120,6 +121,7 @@ DemOptions optionsFromJson(const json& j) {
     o.sleeping = j.at("sleeping").get<bool>();
     o.sleepTimeS = j.at("sleep_time_s").get<double>();
     o.settleKinetic = j.at("settle_kinetic").get<double>();
+    o.settleSpeed = j.value("settle_speed", -1.0);  // absent in states before it existed
     o.settleVelocity = j.at("settle_velocity").get<double>();
     o.maxTimeS = j.at("max_time_s").get<double>();
     o.rainHeightDiameters = j.at("rain_height_d").get<double>();
@@ -337,6 +339,7 @@ void DemSystem::restoreState(const json& j) {
       s.rot[i] = s.q[i].toRotationMatrix();
       s.omegaW[i] = worldRate(s.rot[i], s.L[i], s.tmpl[s.tid[i]].inertiaG);
     }
+    s.rotCurrent = n;
   } catch (const json::exception& e) {
     throw FormatError(std::string("checkpoint: malformed DEM state (") + e.what() + ")");
   }

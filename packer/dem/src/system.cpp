@@ -46,13 +46,12 @@ int DemSystem::Impl::threadsFor(double items, double work) const {
 }
 
 Body DemSystem::Impl::body(std::size_t i) const {
-  const ParticleTemplate& tp = tmpl[tid[i]];
   Body b;
   b.x = x[i];
   b.v = v[i];
   b.w = omegaW[i];
-  b.invMass = 1.0 / tp.massG;
-  b.invInertia = tp.inertiaG.cwiseInverse();
+  b.invMass = invMass[tid[i]];
+  b.invInertia = invInertia[tid[i]];
   b.rot = &rot[i];
   return b;
 }
@@ -104,6 +103,8 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
     impl_->analytic.push_back(a);
     // Spheres along exact normals have a closed-form contact: no surface nodes at all.
     impl_->closedForm.push_back(a.form == 1 && o.contact == ContactModel::kLevelSet ? 1 : 0);
+    impl_->invMass.push_back(1.0 / tp.massG);
+    impl_->invInertia.push_back(tp.inertiaG.cwiseInverse());
   }
 }
 

@@ -2,6 +2,7 @@
 // The DEM integrator's state, shared by its files (one per concern): broad_phase.cpp,
 // narrow_phase.cpp, contact_law.cpp, walls.cpp, forces.cpp, integration.cpp, sleeping.cpp,
 // tapping.cpp; system.cpp holds set-up and the public accessors. docs/dem.md.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -65,7 +66,13 @@ struct ContactLaw {
   /// node grows faster than a sphere cap).
   std::array<double, 13> zeta{};
   /// Damping ratio for the local force law exponent p (linear interpolation in the table).
-  double zetaFor(double p) const;
+  double zetaFor(double p) const {
+    const double top = static_cast<double>(zeta.size() - 1);
+    const double u = std::clamp((p - 1.0) / 0.25, 0.0, top);
+    const int i = std::min(static_cast<int>(top) - 1, static_cast<int>(u));
+    const double f = u - i;
+    return (1 - f) * zeta[static_cast<std::size_t>(i)] + f * zeta[static_cast<std::size_t>(i) + 1];
+  }
   /// The table for restitution e (calibrated by integrating one impact per exponent).
   static ContactLaw calibrated(double friction, double restitution);
 };
@@ -135,6 +142,8 @@ struct DemSystem::Impl {
   };
   std::vector<Analytic> analytic;        // per template: DemShape::analyticForm
   std::vector<std::uint8_t> closedForm;  // per template: sphere contacts in closed form
+  std::vector<double> invMass;           // per template: 1 / mass
+  std::vector<Vec3> invInertia;          // per template: 1 / principal moments
   double workTotal = 0;                  // contact work units of all particles (threads)
 
   // Signed distance of template t's shape at a shape-frame point; the common shapes inline.
@@ -146,6 +155,8 @@ struct DemSystem::Impl {
   // Per particle, refreshed at each force evaluation: rotation and angular velocity.
   std::vector<Eigen::Matrix3d> rot;
   std::vector<Vec3> omegaW;
+  // rot and omegaW hold every particle below this index (a sleeping one is not refreshed).
+  std::size_t rotCurrent = 0;
   std::vector<Pair> pairs;
   // Pairs of each particle in pair order (CSR): the force sum per particle then adds its
   // contacts in the same order for any thread count.
