@@ -6,6 +6,11 @@
 #   spheres:   2000 spheres d 5.4 mm, column D/d 8 (43.2 mm), mu 0.3, e 0.5, rho 2.5 g/cm^3
 #   cylinders: the paper's bed (samples/paper_dem.toml: cylinders d 5.4 l 3.8, mu 0.1, 0.27 mm)
 #              against LIGGGHTS's 600 clumps of 18 spheres
+# Both codes start from the same kind of pour: the peer's insert/pack places every particle at
+# once in a random cloud (solid fraction 0.2 spheres, 0.15 cylinders) and lets it fall; voxpack
+# does the same with --rain-height 0 and that --rain-fraction. Both stop on the same rule
+# (kinetic energy below 1e-6 N m g d; --settle-speed 0 drops voxpack's extra max |v| bound,
+# which one sphere rolling freely on the floor holds for seconds).
 # Every timing records `uptime` load before and after; compare only the pairs of one run.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -32,13 +37,14 @@ if [[ $which == spheres || $which == all ]]; then
   PEERS_OUT="$out/liggghts" timed lig_spheres bash "$root/bench/peers/liggghts_column.sh" 2000 8 0.3 "$seed" 1
   timed vox_spheres "$vox" --threads 1 pack --mode dem --shape sphere:d=5.4 \
     --container cylinder:d=43.2,h=200 --count 2000 --friction 0.3 --restitution 0.5 \
-    --density 2.5 --voxel-size 0.54 --seed "$seed" -o "$out/vox_spheres.h5"
+    --density 2.5 --voxel-size 0.54 --rain-height 0 --rain-fraction 0.2 \
+    --settle-speed 0 --seed "$seed" -o "$out/vox_spheres.h5"
   rows+=(spheres)
 fi
 if [[ $which == cylinders || $which == all ]]; then
   PEERS_OUT="$out/liggghts" SHAPE=cyl timed lig_cylinders bash "$root/bench/peers/liggghts_column.sh" 600 8 0.1 "$seed" 1
   timed vox_cylinders "$vox" --threads 1 pack --config "$root/samples/paper_dem.toml" \
-    --seed "$seed" -o "$out/vox_cylinders.h5"
+    --rain-height 0 --rain-fraction 0.15 --settle-speed 0 --seed "$seed" -o "$out/vox_cylinders.h5"
   rows+=(cylinders)
 fi
 /usr/bin/python3 - "$out" "$seed" "$vox" "${rows[@]}" <<'PY'
@@ -65,6 +71,7 @@ for r in rows:
                         "voxpack_simulated_s": dem["simulated_time_s"], "voxpack_steps": dem["steps"],
                         "voxpack_time_step_s": dem["time_step_s"],
                         "voxpack_mean_overlap_d": dem.get("mean_overlap_d"),
+                        "voxpack_density": info.get("packing_density", info.get("density")),
                         "liggghts_settled": meta.get("settled"), "liggghts_atoms": meta.get("atoms"),
                         "liggghts_time_step_s": meta.get("dt")}
     print(f"{r}: LIGGGHTS {lw:.1f} s (load {ll}), voxpack {vw:.1f} s (load {vl}), ratio {vw / lw:.2f}")
