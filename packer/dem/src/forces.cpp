@@ -20,12 +20,12 @@ void DemSystem::Impl::computeForces() {
   for (std::int64_t si = 0; si < sn; ++si) {
     const auto i = static_cast<std::size_t>(si);
     // A sleeping particle keeps its pose and has no spin (sleepUpdate zeroed both rates),
-    // so its rotation and rate stay as they were when it fell asleep.
-    if (!awake[i] && i < rotCurrent) continue;
+    // so its rotation and rate stay as they were when it fell asleep (particles are added
+    // awake, and a restored state fills both for all).
+    if (!awake[i]) continue;
     rot[i] = q[i].toRotationMatrix();
     omegaW[i] = worldRate(rot[i], L[i], tmpl[tid[i]].inertiaG);
   }
-  rotCurrent = n;
   std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
   const std::int64_t np = static_cast<std::int64_t>(pairs.size());
   // Small systems run serial: a parallel region costs more than it saves there, and far

@@ -339,7 +339,6 @@ void DemSystem::restoreState(const json& j) {
       s.rot[i] = s.q[i].toRotationMatrix();
       s.omegaW[i] = worldRate(s.rot[i], s.L[i], s.tmpl[s.tid[i]].inertiaG);
     }
-    s.rotCurrent = n;
   } catch (const json::exception& e) {
     throw FormatError(std::string("checkpoint: malformed DEM state (") + e.what() + ")");
   }

@@ -155,8 +155,6 @@ struct DemSystem::Impl {
   // Per particle, refreshed at each force evaluation: rotation and angular velocity.
   std::vector<Eigen::Matrix3d> rot;
   std::vector<Vec3> omegaW;
-  // rot and omegaW hold every particle below this index (a sleeping one is not refreshed).
-  std::size_t rotCurrent = 0;
   std::vector<Pair> pairs;
   // Pairs of each particle in pair order (CSR): the force sum per particle then adds its
   // contacts in the same order for any thread count.
