@@ -102,6 +102,10 @@ const std::vector<DemKey>& demKeys() {
        "DEM: particle-wall restitution 0..1; -1 = --restitution (default)", &O::wallRestitution,
        nullptr, [](double v) { return (v >= 0 && v <= 1) || v == -1; },
        "in 0..1, or -1 = --restitution"},
+      {"--rolling-friction", "rolling_friction",
+       "DEM: rolling resistance mu_r >= 0 of pair and wall contacts (constant directional "
+       "torque mu_r |Fn| R); 0 = none (default)",
+       &O::rollingFriction, nullptr, nonNegative, ">= 0"},
       {"--rain-speed", "rain_speed_mm_s", "DEM: initial downward speed, mm/s (default 0)",
        &O::rainSpeedMmPerS, nullptr, nonNegative, ">= 0"},
   };
@@ -260,6 +264,7 @@ class DemMode final : public PackMode {
         {"clipped_outside_mask_mm3", clippedMm3},
         {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
         {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},
+        {"rolling_friction", o.rollingFriction},
         {"dem_wall_time_s", r.wallTimeS},
         {"threads", o.threads},
         {"steps", r.counters.steps},

@@ -59,7 +59,7 @@ TEST(CliPackDem, TomlTableAndFlagsWin) {
   TempDir tmp;
   {
     std::ofstream f(tmp / "scene.toml");
-    f << "[dem]\nfriction = 0.7\nrestitution = 0.2\nsleeping = false\n";
+    f << "[dem]\nfriction = 0.7\nrestitution = 0.2\nsleeping = false\nrolling_friction = 0.05\n";
   }
   auto args = baseArgs(tmp);
   for (const std::string& a :
@@ -71,6 +71,7 @@ TEST(CliPackDem, TomlTableAndFlagsWin) {
   EXPECT_DOUBLE_EQ(dem.at("friction").get<double>(), 0.1);
   EXPECT_DOUBLE_EQ(dem.at("restitution").get<double>(), 0.2);
   EXPECT_FALSE(dem.at("sleeping").get<bool>());
+  EXPECT_DOUBLE_EQ(dem.at("rolling_friction").get<double>(), 0.05);
 }
 
 TEST(CliPackDem, BadValuesExitTwoWithOneErrorLine) {
@@ -99,7 +100,8 @@ TEST(CliPackDem, InvalidDemTomlValuesExitTwoNamingTheKey) {
                                                         {"max_time_s", "-3"},
                                                         {"rain_volume_fraction", "1.5"},
                                                         {"time_step_fraction", "0.5"},
-                                                        {"wall_restitution", "2"}}) {
+                                                        {"wall_restitution", "2"},
+                                                        {"rolling_friction", "-0.1"}}) {
     TempDir tmp;
     {
       std::ofstream f(tmp / "scene.toml");

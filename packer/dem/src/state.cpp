@@ -79,6 +79,7 @@ json toJson(const DemOptions& o) {
           {"tangential_stiffness_ratio", o.tangentialStiffnessRatio},
           {"wall_friction", o.wallFriction},
           {"wall_restitution", o.wallRestitution},
+          {"rolling_friction", o.rollingFriction},
           {"tap_cycles", o.tapCycles},
           {"tap_amplitude_mm", o.tapAmplitudeMm},
           {"tap_frequency_hz", o.tapFrequencyHz},
@@ -114,6 +115,7 @@ DemOptions optionsFromJson(const json& j) {
     o.tangentialStiffnessRatio = j.at("tangential_stiffness_ratio").get<double>();
     o.wallFriction = j.at("wall_friction").get<double>();
     o.wallRestitution = j.at("wall_restitution").get<double>();
+    o.rollingFriction = j.value("rolling_friction", 0.0);  // absent in states before it existed
     o.tapCycles = j.at("tap_cycles").get<int>();
     o.tapAmplitudeMm = j.at("tap_amplitude_mm").get<double>();
     o.tapFrequencyHz = j.at("tap_frequency_hz").get<double>();

@@ -92,6 +92,10 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
   impl_->wallLaw =
       ContactLaw::calibrated(o.wallFriction >= 0 ? o.wallFriction : o.friction,
                              o.wallRestitution >= 0 ? o.wallRestitution : o.restitution);
+  if (!(o.rollingFriction >= 0) || !std::isfinite(o.rollingFriction))
+    throw InputError("--rolling-friction must be >= 0 (got " + std::to_string(o.rollingFriction) +
+                     ")");
+  impl_->pairLaw.rolling = impl_->wallLaw.rolling = o.rollingFriction;
   impl_->skin = 0.1 * impl_->rMax();
   if (!(o.nodeSkinDiameters >= 0) || !std::isfinite(o.nodeSkinDiameters))
     throw InputError("dem: node skin must be >= 0");

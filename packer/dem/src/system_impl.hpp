@@ -47,6 +47,12 @@ struct Body {
     const Vec3 rn = rot->transpose() * (p - x).cross(n);
     return invMass + rn.cwiseProduct(rn).dot(invInertia);
   }
+  /// Inverse moment of inertia about the world unit axis u (0 for a wall).
+  double inverseInertiaAbout(const Vec3& u) const {
+    if (!rot) return 0;
+    const Vec3 ru = rot->transpose() * u;
+    return ru.cwiseProduct(ru).dot(invInertia);
+  }
 };
 
 /// Result of one contact on body A.
@@ -62,6 +68,7 @@ struct ContactOut {
 /// Contact parameters of one kind of contact (particle-particle or particle-wall).
 struct ContactLaw {
   double friction = 0;
+  double rolling = 0;  ///< rolling resistance mu_r (0 = none)
   /// Damping ratio for F ~ delta^p, p = 1, 1.25, ..., 4 (a rim or an edge entering node by
   /// node grows faster than a sphere cap).
   std::array<double, 13> zeta{};
@@ -193,6 +200,8 @@ struct DemSystem::Impl {
   void friction(const Vec3& n, const Vec3& cp, double fnMag, double kSum, double zetaC,
                 double mStar, const Body& a, const Body& b, const ContactLaw& law,
                 const Vec3& xiOld, ContactOut& out) const;
+  void rolling(const Vec3& n, const Vec3& cp, double fnMag, const Body& a, const Body& b,
+               const ContactLaw& law, ContactOut& out) const;
   // narrow_phase.cpp
   Hit nodeHit(const ParticleTemplate& ta, const ParticleTemplate& tb, std::uint32_t ni,
               const Vec3& pb, double s, const Vec3& xa, const Eigen::Matrix3d& ra,

@@ -120,8 +120,12 @@ struct DemOptions {
   ContactModel contact = ContactModel::kLevelSet;  ///< direction of node forces
   double gravityMmPerS2 = 9810.0;                  ///< gravity magnitude, acting along -z
   double tangentialStiffnessRatio = 2.0 / 7.0;     ///< k_t / k_n (elastic spheres)
-  double wallFriction = -1;      ///< particle-wall Coulomb coefficient; -1 = friction
-  double wallRestitution = -1;   ///< particle-wall restitution; -1 = restitution
+  double wallFriction = -1;     ///< particle-wall Coulomb coefficient; -1 = friction
+  double wallRestitution = -1;  ///< particle-wall restitution; -1 = restitution
+  /// Rolling resistance mu_r >= 0 of pair and wall contacts: a constant directional torque
+  /// mu_r |Fn| R_eff against the relative rolling rate (Ai et al. 2011, model A; LIGGGHTS
+  /// `rolling_friction cdt`); 0 = none.
+  double rollingFriction = 0;
   int tapCycles = 0;             ///< taps after the pour settled (0 = none)
   double tapAmplitudeMm = 0;     ///< container lift per tap; 0 = 0.3 d
   double tapFrequencyHz = 30;    ///< one tap = one sine period of the container lift
