@@ -118,6 +118,111 @@ packer::dem::ContactModel parseContact(const std::string& text, const std::strin
   throw InputError(where + ": contact must be voxel or levelset (got '" + text + "')");
 }
 
+// "a,b,c" as numbers (a flag's list).
+std::vector<double> parseNumbers(const std::string& text, const std::string& where) {
+  std::vector<double> out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, end - start);
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || !std::isfinite(v))
+      throw InputError(where + ": '" + item + "' is not a number");
+    out.push_back(v);
+    start = end + 1;
+  }
+  return out;
+}
+
+// --size-lognormal MEDIAN,GSD,MIN,MAX (mm, -, mm, mm).
+packer::dem::SizeDistribution parseLogNormal(const std::string& text, const std::string& where) {
+  const auto v = parseNumbers(text, where);
+  if (v.size() != 4) throw InputError(where + ": expected MEDIAN,GSD,MIN,MAX (got '" + text + "')");
+  packer::dem::SizeDistribution d;
+  d.kind = packer::dem::SizeDistribution::Kind::kLogNormal;
+  d.medianMm = v[0];
+  d.geometricStd = v[1];
+  d.minMm = v[2];
+  d.maxMm = v[3];
+  packer::dem::checkSizeDistribution(d, where);
+  return d;
+}
+
+// --size-sieve EDGES:FRACTIONS, e.g. 2,2.5,3.15,4:0.3,0.5,0.2 (mm; mass fractions).
+packer::dem::SizeDistribution parseSieve(const std::string& text, const std::string& where) {
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos)
+    throw InputError(where + ": expected EDGES:FRACTIONS, e.g. 2,2.5,3.15,4:0.3,0.5,0.2");
+  packer::dem::SizeDistribution d;
+  d.kind = packer::dem::SizeDistribution::Kind::kSieve;
+  d.edgesMm = parseNumbers(text.substr(0, colon), where);
+  d.massFractions = parseNumbers(text.substr(colon + 1), where);
+  packer::dem::checkSizeDistribution(d, where);
+  return d;
+}
+
+// The [dem.sizes] table: lognormal_median_mm, geometric_std, min_mm, max_mm; or
+// sieve_edges_mm and sieve_mass_fractions (arrays).
+packer::dem::SizeDistribution parseSizesTable(const toml::table& t, const std::string& cfg) {
+  using packer::dem::SizeDistribution;
+  SizeDistribution d;
+  auto where = [&](const toml::node& n) {
+    return cfg + ":" + std::to_string(n.source().begin.line) + ": [dem.sizes] ";
+  };
+  auto number = [&](const toml::node& n, const std::string& key) {
+    const auto v = n.value<double>();
+    if (!v) throw InputError(where(n) + key + " must be a number");
+    return *v;
+  };
+  auto numbers = [&](const toml::node& n, const std::string& key) {
+    const auto* a = n.as_array();
+    if (!a) throw InputError(where(n) + key + " must be an array of numbers");
+    std::vector<double> out;
+    for (const auto& e : *a) out.push_back(number(e, key));
+    return out;
+  };
+  // The log-normal keys and the sieve keys, and where each lands.
+  const std::pair<const char*, double SizeDistribution::*> reals[] = {
+      {"lognormal_median_mm", &SizeDistribution::medianMm},
+      {"geometric_std", &SizeDistribution::geometricStd},
+      {"min_mm", &SizeDistribution::minMm},
+      {"max_mm", &SizeDistribution::maxMm}};
+  const std::pair<const char*, std::vector<double> SizeDistribution::*> lists[] = {
+      {"sieve_edges_mm", &SizeDistribution::edgesMm},
+      {"sieve_mass_fractions", &SizeDistribution::massFractions}};
+  bool logNormal = false, sieve = false;
+  std::string at = cfg + ": [dem.sizes]";
+  for (const auto& [k, node] : t) {
+    const std::string key(k.str());
+    at = where(node);
+    bool known = false;
+    for (const auto& [name, field] : reals)
+      if (key == name) {
+        d.*field = number(node, key);
+        logNormal = known = true;
+      }
+    for (const auto& [name, field] : lists)
+      if (key == name) {
+        d.*field = numbers(node, key);
+        sieve = known = true;
+      }
+    if (!known) throw InputError(where(node) + "unknown key '" + key + "' (see docs/dem.md)");
+  }
+  if (logNormal && sieve)
+    throw InputError(at + "give either the log-normal keys or the sieve keys, not both");
+  d.kind = logNormal ? SizeDistribution::Kind::kLogNormal
+           : sieve   ? SizeDistribution::Kind::kSieve
+                     : SizeDistribution::Kind::kNone;
+  packer::dem::checkSizeDistribution(d, cfg + ": [dem.sizes]");
+  return d;
+}
+
 bool parseOnOff(const std::string& text, const std::string& where) {
   if (text == "on" || text == "true" || text == "1") return true;
   if (text == "off" || text == "false" || text == "0") return false;
@@ -138,18 +243,46 @@ class DemMode final : public PackMode {
                     "(LS-DEM, exact normal); default levelset");
     pack.add_option("--sleeping", sleeping_,
                     "DEM: on/off: particles at rest away from motion are frozen (default on)");
+    pack.add_option("--size-lognormal", sizeLogNormal_,
+                    "DEM: sphere diameters log-normal by number, MEDIAN,GSD,MIN,MAX (mm, "
+                    "geometric std, truncation mm); the one --shape must be a sphere");
+    pack.add_option("--size-sieve", sizeSieve_,
+                    "DEM: sphere diameters from a sieve table EDGES:FRACTIONS (mm; mass "
+                    "fractions), e.g. 2,2.5,3.15,4:0.3,0.5,0.2");
   }
 
   int run(const PackScene& scene, const toml::table* table, const CLI::App& pack,
           const GlobalOptions& global) override {
     const auto t0 = std::chrono::steady_clock::now();
     DemOptions o;
+    packer::dem::SizeDistribution sizes;
     if (!scene.resumeState.is_null()) {
       // The options the checkpointed run had (runDem checks its identity again).
       if (!scene.resumeState.is_object() || !scene.resumeState.contains("identity") ||
           !scene.resumeState["identity"].contains("options"))
         throw FormatError("--resume " + scene.resume.string() + ": not a DEM state");
       o = packer::dem::optionsFromJson(scene.resumeState["identity"]["options"]);
+      // The size distribution of the checkpointed run (its identity holds it when set).
+      const auto& id = scene.resumeState["identity"];
+      if (id.contains("sizes") && id["sizes"].is_object()) {
+        const auto& j = id["sizes"];
+        try {
+          if (j.at("kind") == "lognormal") {
+            sizes.kind = packer::dem::SizeDistribution::Kind::kLogNormal;
+            sizes.medianMm = j.at("median_mm").get<double>();
+            sizes.geometricStd = j.at("geometric_std").get<double>();
+            sizes.minMm = j.at("min_mm").get<double>();
+            sizes.maxMm = j.at("max_mm").get<double>();
+          } else {
+            sizes.kind = packer::dem::SizeDistribution::Kind::kSieve;
+            sizes.edgesMm = j.at("edges_mm").get<std::vector<double>>();
+            sizes.massFractions = j.at("mass_fractions").get<std::vector<double>>();
+          }
+        } catch (const nlohmann::json::exception& e) {
+          throw FormatError("--resume " + scene.resume.string() + ": bad size distribution (" +
+                            e.what() + ")");
+        }
+      }
     }
     const auto& keys = demKeys();
     const std::string cfg = scene.config.string();
@@ -160,6 +293,12 @@ class DemMode final : public PackMode {
           const auto v = node.value<std::string>();
           if (!v) throw InputError(where + ": contact must be a string");
           o.contact = parseContact(*v, where);
+          continue;
+        }
+        if (k.str() == "sizes") {
+          const toml::table* t = node.as_table();
+          if (!t) throw InputError(where + ": sizes must be a table ([dem.sizes])");
+          sizes = parseSizesTable(*t, cfg);
           continue;
         }
         if (k.str() == "sleeping") {
@@ -184,6 +323,12 @@ class DemMode final : public PackMode {
     if (pack.get_option("--contact")->count() > 0) o.contact = parseContact(contact_, "--contact");
     if (pack.get_option("--sleeping")->count() > 0)
       o.sleeping = parseOnOff(sleeping_, "--sleeping");
+    const bool logNormalFlag = pack.get_option("--size-lognormal")->count() > 0;
+    const bool sieveFlag = pack.get_option("--size-sieve")->count() > 0;
+    if (logNormalFlag && sieveFlag)
+      throw InputError("--size-lognormal and --size-sieve: give one size distribution");
+    if (logNormalFlag) sizes = parseLogNormal(sizeLogNormal_, "--size-lognormal");
+    if (sieveFlag) sizes = parseSieve(sizeSieve_, "--size-sieve");
     o.threads = resolveThreads(global.threads);
 
     packer::dem::DemScene ds;
@@ -201,6 +346,7 @@ class DemMode final : public PackMode {
     ds.count = scene.count;
     ds.fillHeightMm = scene.fillHeightMm;
     ds.seed = scene.seed;
+    ds.sizes = sizes;
 
     CommandProgress progress(global);
     packer::dem::DemCheckpointing ckpt;
@@ -226,6 +372,12 @@ class DemMode final : public PackMode {
     double dRef = 1e300;
     for (const auto& sh : shapes)
       dRef = std::min(dRef, std::cbrt(6 * sh->volumeMm3() / std::numbers::pi));
+    if (!sizes.none()) {
+      // Overlaps in units of the smallest sphere poured (the table holds each diameter).
+      dRef = 1e300;
+      for (const auto& spec : r.particles.shape)
+        dRef = std::min(dRef, packer::parseShape(spec)->volumeEquivalentDiameterMm());
+    }
 
     nlohmann::json prov = scene.provenance;
     nlohmann::json dem = {
@@ -265,6 +417,7 @@ class DemMode final : public PackMode {
         {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
         {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},
         {"rolling_friction", o.rollingFriction},
+        {"size_distribution", packer::dem::toJson(sizes)},
         {"dem_wall_time_s", r.wallTimeS},
         {"threads", o.threads},
         {"steps", r.counters.steps},
@@ -315,6 +468,7 @@ class DemMode final : public PackMode {
   std::vector<double> values_;
   std::string contact_ = "levelset";
   std::string sleeping_ = "on";
+  std::string sizeLogNormal_, sizeSieve_;
 };
 
 }  // namespace

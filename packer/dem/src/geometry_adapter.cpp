@@ -149,6 +149,14 @@ Bed demBed(const ParticleTable& particles, const std::vector<std::shared_ptr<con
            Progress& progress, double* clippedMm3) {
   std::map<std::string, const Shape*> bySpec;
   for (const auto& s : shapes) bySpec[s->spec()] = s.get();
+  // Specs the scene does not hold (a size distribution: one sphere per particle) are read
+  // from the table itself.
+  std::vector<std::shared_ptr<const Shape>> own;
+  for (const auto& spec : particles.shape)
+    if (!bySpec.count(spec)) {
+      own.push_back(parseShape(spec));
+      bySpec[spec] = own.back().get();
+    }
   Lattice lattice = latticeForContainer(container, voxelMm, 1);
   // Extend upwards when the bed stands above the container's nominal top.
   double top = -1e300;

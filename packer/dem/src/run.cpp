@@ -1,5 +1,7 @@
 // The packing driver: batch injection (a rain zone just above the bed), settling, tapping.
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -8,6 +10,8 @@
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/random.hpp"
 #include "voxpack/packer/dem.hpp"
+#include "voxpack/packer/dem_geometry.hpp"
+#include "voxpack/packer/shape.hpp"
 
 namespace voxpack::packer::dem {
 namespace {
@@ -60,17 +64,36 @@ nlohmann::json runIdentity(const DemScene& scene, const DemOptions& options, con
     shapes.push_back(
         {scene.shapes[s]->spec(), s < scene.fractions.size() ? scene.fractions[s] : 1.0});
   const Vec3 lo = scene.container->minMm(), hi = scene.container->maxMm();
-  return {{"options", toJson(options)},
-          {"seed", scene.seed},
-          {"shapes", shapes},
-          {"voxel_size_mm", scene.voxelSizeMm},
-          {"count", count},
-          {"fill_height_mm", scene.fillHeightMm},
-          {"initial_particles", initialCount},
-          {"container_bounds_mm", {lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()}},
-          {"bed_height_mm", bedHeightMm},
-          {"stiffness_n_mm3", sys.stiffnessNPerMm3()},
-          {"time_step_s", sys.timeStepS()}};
+  nlohmann::json id = {{"options", toJson(options)},
+                       {"seed", scene.seed},
+                       {"shapes", shapes},
+                       {"voxel_size_mm", scene.voxelSizeMm},
+                       {"count", count},
+                       {"fill_height_mm", scene.fillHeightMm},
+                       {"initial_particles", initialCount},
+                       {"container_bounds_mm", {lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z()}},
+                       {"bed_height_mm", bedHeightMm},
+                       {"stiffness_n_mm3", sys.stiffnessNPerMm3()},
+                       {"time_step_s", sys.timeStepS()}};
+  // Only when set, so the identity of a run without one is what it was before.
+  if (!scene.sizes.none()) id["sizes"] = toJson(scene.sizes);
+  return id;
+}
+
+// Diameter of new particle `index` of a size distribution: the second and later draws of
+// its injection stream (the first picks the shape), so they are the draws the pour makes.
+double particleDiameterMm(const DemScene& scene, std::uint64_t index) {
+  RandomStream rs(scene.seed, index);
+  rs.uniform();
+  return drawDiameterMm(scene.sizes, rs);
+}
+
+// A sphere of diameter d as the geometry module spells it (shortest round-trip text, so
+// the bed's particle table holds the exact diameter the run used).
+std::shared_ptr<const DemShape> sphereOfDiameter(double d) {
+  std::array<char, 64> buf{};
+  const auto r = std::to_chars(buf.data(), buf.data() + buf.size(), d);
+  return demShape(parseShape("sphere:d=" + std::string(buf.data(), r.ptr)));
 }
 
 }  // namespace
@@ -112,6 +135,15 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
     cum.push_back(total);
   }
   if (!(total > 0)) throw InputError("dem: shape fractions sum to 0");
+  const bool sized = !scene.sizes.none();
+  if (sized) {
+    checkSizeDistribution(scene.sizes, "dem: size distribution");
+    double r0 = 0, hl0 = 0;
+    if (scene.shapes.size() != 1 || scene.shapes[0]->analyticForm(r0, hl0) != 1)
+      throw InputError(
+          "dem: a size distribution needs exactly one shape, a sphere (its diameter is drawn "
+          "per particle)");
+  }
 
   std::vector<ParticleTemplate> templates;
   double vMean = 0, dMax = 0, rMax = 0, massMean = 0;
@@ -141,7 +173,48 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
     initialVolume += scene.shapes[t]->volumeMm3();
   }
   std::int64_t count = scene.count;
-  if (count == 0 && scene.fillHeightMm > 0)
+  // A size distribution: each new particle's diameter from its own stream, and its own
+  // template (the base sphere scaled; a closed-form sphere needs no surface nodes). With a
+  // fill height, particles are drawn until their volume fills it at the guessed density.
+  std::vector<double> diameters;
+  if (sized) {
+    if (count == 0 && scene.fillHeightMm > 0) {
+      const double want = scene.fillHeightMm * area * options.fillHeightPhiGuess - initialVolume;
+      for (double v = 0; v < want && diameters.size() < 100000000;) {
+        diameters.push_back(particleDiameterMm(scene, diameters.size()));
+        v += kPi / 6 * std::pow(diameters.back(), 3);
+      }
+    } else {
+      for (std::int64_t i = 0; i < count; ++i)
+        diameters.push_back(particleDiameterMm(scene, static_cast<std::uint64_t>(i)));
+    }
+    count = static_cast<std::int64_t>(diameters.size());
+    double r0 = 0, hl0 = 0;
+    scene.shapes[0]->analyticForm(r0, hl0);
+    const bool nodes = options.contact != ContactModel::kLevelSet;
+    // New particle i is template i; the scene's sphere stays (after them) only when the
+    // starting bed uses it, so its nominal diameter sizes neither the stiffness nor the step.
+    std::vector<ParticleTemplate> own;
+    own.reserve(diameters.size() + 1);
+    double v = 0, m = 0;
+    for (const double d : diameters) {
+      own.push_back(scaledTemplate(templates[0], sphereOfDiameter(d), 0.5 * d / r0, nodes));
+      v += kPi / 6 * d * d * d;
+      m += own.back().massG;
+    }
+    if (!diameters.empty()) {
+      vMean = v / static_cast<double>(count);
+      massMean = m / static_cast<double>(count);
+      dMax = *std::max_element(diameters.begin(), diameters.end());
+      rMax = 0.5 * dMax;
+    }
+    if (!initialTemplate.empty()) {
+      for (auto& t : initialTemplate) t += own.size();
+      own.push_back(templates[0]);
+    }
+    templates = std::move(own);
+  }
+  if (count == 0 && scene.fillHeightMm > 0 && !sized)
     count = std::max<std::int64_t>(
         0, static_cast<std::int64_t>(std::ceil(
                (scene.fillHeightMm * area * options.fillHeightPhiGuess - initialVolume) / vMean)));
@@ -252,7 +325,11 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
           const double u = rs.uniform() * total;
           const std::size_t ti =
               static_cast<std::size_t>(std::upper_bound(cum.begin(), cum.end(), u) - cum.begin());
-          const std::size_t tIndex = std::min(ti, templates.size() - 1);
+          std::size_t tIndex = std::min(ti, templates.size() - 1);
+          if (sized) {
+            drawDiameterMm(scene.sizes, rs);  // the diameter's draw, already in its template
+            tIndex = static_cast<std::size_t>(inserted);
+          }
           const double r = templates[tIndex].radiusMm;
           const Quat q = randomRotation(rs);
           bool ok = false;

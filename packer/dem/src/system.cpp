@@ -26,17 +26,9 @@ const char* statusName(DemStatus s) {
   return "unknown";
 }
 
-double DemSystem::Impl::rMax() const {
-  double r = 0;
-  for (const auto& t0 : tmpl) r = std::max(r, t0.radiusMm);
-  return r;
-}
+double DemSystem::Impl::rMax() const { return rMaxMm; }
 
-double DemSystem::Impl::dMin() const {
-  double d = 1e300;
-  for (const auto& t0 : tmpl) d = std::min(d, t0.diameterMm);
-  return d;
-}
+double DemSystem::Impl::dMin() const { return dMinMm; }
 
 int DemSystem::Impl::threadsFor(double items, double work) const {
   const int threads = std::max(1, opt.threads);
@@ -82,6 +74,12 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
   if (!(o.maxTimeS > 0)) throw InputError("--max-time must be > 0");
   if (!(o.gravityMmPerS2 >= 0)) throw InputError("dem: gravity must be >= 0");
   impl_->tmpl = std::move(templates);
+  // Once: a size distribution has one template per particle, and sleeping reads dMin()
+  // every step.
+  for (const auto& t0 : impl_->tmpl) {
+    impl_->rMaxMm = std::max(impl_->rMaxMm, t0.radiusMm);
+    impl_->dMinMm = std::min(impl_->dMinMm, t0.diameterMm);
+  }
   impl_->container = std::move(container);
   impl_->opt = options;
   if (!(o.wallFriction >= 0 || o.wallFriction == -1) || !std::isfinite(o.wallFriction))

@@ -180,6 +180,8 @@ struct DemSystem::Impl {
   std::uint64_t contactCount = 0;
   DemCounters counters;
 
+  double rMaxMm = 0;      // largest bounding radius of the templates
+  double dMinMm = 1e300;  // smallest volume-equivalent diameter of the templates
   double rMax() const;
   double dMin() const;
   int threadsFor(double items, double work) const;  // 1 below the parallel thresholds

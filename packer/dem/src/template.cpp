@@ -174,4 +174,34 @@ ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double vox
   return t;
 }
 
+ParticleTemplate scaledTemplate(const ParticleTemplate& base, std::shared_ptr<const DemShape> shape,
+                                double s, bool nodes) {
+  if (!(s > 0) || !std::isfinite(s)) throw InputError("dem: template scale must be > 0");
+  ParticleTemplate t;
+  t.shape = std::move(shape);
+  t.principalToShape = base.principalToShape;
+  t.massG = base.massG * s * s * s;
+  t.inertiaG = base.inertiaG * (s * s * s * s * s);
+  t.radiusMm = base.radiusMm * s;
+  t.diameterMm = base.diameterMm * s;
+  t.flatAreaMm2 = base.flatAreaMm2 * s * s;
+  if (!nodes) return t;
+  t.nodeP = base.nodeP;
+  for (auto& p : t.nodeP) p *= s;
+  t.nodeFace = base.nodeFace;
+  t.nodeNormal = base.nodeNormal;
+  t.nodeArea = base.nodeArea;
+  for (auto& a : t.nodeArea) a *= s * s;
+  t.nodeLsArea = base.nodeLsArea;
+  for (auto& a : t.nodeLsArea) a *= s * s;
+  t.coarse = base.coarse;
+  t.fine = base.fine;
+  for (auto* cs : {&t.coarse, &t.fine})
+    for (auto& c : *cs) {
+      c.centre *= s;
+      c.radius *= s;
+    }
+  return t;
+}
+
 }  // namespace voxpack::packer::dem

@@ -19,6 +19,7 @@
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/progress.hpp"
+#include "voxpack/core/random.hpp"
 
 namespace voxpack::packer::dem {
 
@@ -191,6 +192,12 @@ struct ParticleTemplate {
 /// Builds the template of `shape` digitised at `voxelMm` (density in g/cm^3).
 ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double voxelMm,
                                double densityGPerCm3);
+/// `base` scaled by `s` about its centre of mass, for `shape` (base's shape scaled by s):
+/// mass s^3, inertia s^5, nodes at s x their place with s^2 their area; `nodes` false drops
+/// the surface nodes (a closed-form sphere needs none, and a size distribution has one
+/// template per particle).
+ParticleTemplate scaledTemplate(const ParticleTemplate& base, std::shared_ptr<const DemShape> shape,
+                                double s, bool nodes);
 
 /// How a run ended.
 enum class DemStatus { kSettled, kTimeCap, kCancelled, kDiverged };
@@ -281,6 +288,33 @@ class DemSystem {
   std::unique_ptr<Impl> impl_;
 };
 
+/// A continuous distribution of sphere diameters (mm) for a pour: each new particle's
+/// diameter is drawn from RandomStream(seed, particle index) (docs/dem.md, "Size
+/// distributions").
+struct SizeDistribution {
+  /// kNone: the scene's shapes as given; kLogNormal: ln d normal by number (median,
+  /// geometric standard deviation), truncated to [minMm, maxMm]; kSieve: sieve bins
+  /// [edge_k, edge_k+1) holding mass fractions, the diameter uniform by number in its bin.
+  enum class Kind { kNone, kLogNormal, kSieve };
+  Kind kind = Kind::kNone;            ///< which distribution
+  double medianMm = 0;                ///< log-normal: number median diameter
+  double geometricStd = 1;            ///< log-normal: exp(sigma of ln d), >= 1
+  double minMm = 0;                   ///< log-normal: truncation, smallest diameter (> 0)
+  double maxMm = 0;                   ///< log-normal: truncation, largest diameter (>= minMm)
+  std::vector<double> edgesMm;        ///< sieve: n + 1 increasing bin edges (mm, > 0)
+  std::vector<double> massFractions;  ///< sieve: n mass fractions (>= 0, normalised)
+  /// True for kNone.
+  bool none() const { return kind == Kind::kNone; }
+};
+
+/// InputError (naming `where`) unless `sizes` is a valid distribution.
+void checkSizeDistribution(const SizeDistribution& sizes, const std::string& where);
+/// One diameter (mm) of `sizes` (not kNone) from `rs`: one uniform for log-normal (inverse
+/// CDF), two for a sieve (bin, then the place in it).
+double drawDiameterMm(const SizeDistribution& sizes, RandomStream& rs);
+/// The distribution as JSON (provenance, checkpoint identity); null for kNone.
+nlohmann::json toJson(const SizeDistribution& sizes);
+
 /// A packing job: shapes (mixture by number fraction), container and target.
 struct DemScene {
   std::vector<std::shared_ptr<const DemShape>> shapes;  ///< mixture
@@ -295,6 +329,8 @@ struct DemScene {
   /// Particles present at the start, at rest (pack --from BED.h5): each spec must be one of
   /// `shapes` (a shape only the start holds has fraction 0). New ones are poured on top.
   ParticleTable initial;
+  /// Diameters of the new particles (the one shape must then be a sphere); kNone = as given.
+  SizeDistribution sizes;
 };
 
 /// Resumable checkpoints of a run. A state is taken between two checks of the driver

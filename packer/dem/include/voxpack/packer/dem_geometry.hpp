@@ -24,7 +24,8 @@ std::shared_ptr<const DemContainer> demContainer(std::shared_ptr<const Container
 
 /// Digitises the particles of a run on the container's lattice (voxel `voxelMm`, extended
 /// upwards to hold the highest particle): indicator, mask, labels, particle table.
-/// `shapes` must hold every spec of `particles.shape`. Threads over particles; the labels
+/// A spec of `particles.shape` that `shapes` does not hold is parsed (a size distribution
+/// gives every particle its own sphere). Threads over particles; the labels
 /// are written in particle order, so a voxel shared by two overlapping particles goes to the
 /// lower id whatever the thread count. Solid outside the mask (soft wall overlap) is clipped;
 /// its volume (mm^3) goes to `clippedMm3` when given.
