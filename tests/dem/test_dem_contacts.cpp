@@ -85,19 +85,29 @@ TEST(DemContacts, ClosedFormSphereReboundsToESquaredWithItsWallRestitution) {
   EXPECT_NEAR(apexAfterBounce(sphere, o, 3.0) / (0.64 * 3.0), 1.0, 0.10);
 }
 
-// A cylinder landing on its rim stops and spins: the contact point's normal speed, not the
-// centre's, must come back with e; damping with the translational mass alone misses it.
-TEST(DemContacts, RimImpactReboundsWithRequestedRestitution) {
+// A cylinder d 5.4 x l 3.8 mm tilted by `tiltRad` about x falls on its lowest rim point at
+// 300 mm/s (no gravity, no friction) onto a floor of face stiffness k (N/mm^3). Returns the
+// rim point's normal speed after the contact over 300 (Newton's restitution) and the
+// restitution from the kinetic energy lost, (1 - e^2) of 1/2 m* v^2 with m* the effective
+// mass at the rim at first touch. `cap`: DemOptions::contactStiffnessCap.
+void rimImpact(double tiltRad, double stiffness, double cap, double e, double& kinematic,
+               double& energy) {
   DemOptions o = quiet();
-  o.restitution = 0.5;
-  o.stiffnessNPerMm3 = 0.1;
+  o.restitution = e;
+  o.stiffnessNPerMm3 = stiffness;
+  o.contactStiffnessCap = cap;
   const double r = 2.7, hl = 1.9;
   auto sys =
       system1(std::make_shared<TestCylinder>(5.4, 3.8), 0.27, o, std::make_shared<TestBox>(60));
-  const Quat q(Eigen::AngleAxisd(kPi / 4, Vec3::UnitX()));
+  const Quat q(Eigen::AngleAxisd(tiltRad, Vec3::UnitX()));
   const Vec3 rim(0, -r, -hl);  // shape frame: the lowest rim point at this tilt
   const double low = -(q * rim).z();
   sys->addParticle(0, Vec3(0, 0, low + 0.05), q, Vec3(0, 0, -300));
+  const double m = sys->templates()[0].massG;
+  const double ix = m * (3 * r * r + 4 * hl * hl) / 12;  // about the tilt axis
+  const double lever = (q * rim).y();
+  const double mStar = 1.0 / (1.0 / m + lever * lever / ix);
+  const double ke0 = sys->kineticEnergy();
   auto rimVelocity = [&] {
     const Vec3 arm = sys->orientation(0) * rim;
     return Vec3(sys->velocity(0) + sys->angularVelocity(0).cross(arm)).z();
@@ -110,10 +120,35 @@ TEST(DemContacts, RimImpactReboundsWithRequestedRestitution) {
     if (touched && rimHeight() > 0.002) break;
   }
   ASSERT_TRUE(touched);
-  // Measured 0.62 at 0.27 mm (node resolution at the rim edge; the 10 % goal is not met yet,
-  // docs/dem.md): the band catches a damping mass that ignores rotation or a lost rebound.
-  RecordProperty("rim_restitution", std::to_string(rimVelocity() / 300.0));
-  EXPECT_NEAR(rimVelocity() / 300.0, 0.55, 0.1);
+  kinematic = rimVelocity() / 300.0;
+  energy = std::sqrt(std::max(0.0, 1 - (ke0 - sys->kineticEnergy()) / (0.5 * mStar * 300 * 300)));
+}
+
+// A cylinder landing on its rim stops and spins: the contact point's normal speed, not the
+// centre's, must come back with e. Newton's restitution holds for an impulsive contact: at
+// k 100 N/mm^3 (0.5 ms of contact) the rim returns 0.506 (45 deg) and 0.504 (20 deg) of its
+// speed for e 0.5. A soft contact lets the cylinder turn while touching (k 0.1: ~12 deg in
+// 4.5 ms, the rim's lever 0.57 -> 1.23 mm), and the rim's speed afterwards then also holds
+// that turn: 0.62 for e 0.5, 1.19 for e 1 with the energy kept to 1e-5 (the number this test
+// used to report as the 10 % goal not met). The energy lost there still gives e 0.48 (no
+// stiffness ceiling: with gravity 0 the ceiling sits low and this contact passes it, where
+// it dissipates more, 0.43; docs/dem.md). At 20 deg (lever 1.9 mm, m* = 0.46 m) a damping
+// mass without rotation returns 0.38.
+TEST(DemContacts, RimImpactReboundsWithRequestedRestitution) {
+  for (const double tiltDeg : {45.0, 20.0})
+    for (const double e : {0.5, 0.2, 0.8}) {
+      double kinematic = 0, energy = 0;
+      rimImpact(tiltDeg * kPi / 180, 100.0, 1.0, e, kinematic, energy);
+      RecordProperty(
+          "rim_restitution_" + std::to_string(static_cast<int>(tiltDeg)) + "_" + std::to_string(e),
+          std::to_string(kinematic));
+      EXPECT_NEAR(kinematic / e, 1.0, 0.1) << tiltDeg << " deg, e " << e;
+      EXPECT_NEAR(energy / e, 1.0, 0.1) << tiltDeg << " deg, e " << e;
+    }
+  double kinematic = 0, energy = 0;
+  rimImpact(kPi / 4, 0.1, 0.0, 0.5, kinematic, energy);
+  RecordProperty("rim_restitution_soft_energy", std::to_string(energy));
+  EXPECT_NEAR(energy / 0.5, 1.0, 0.1);
 }
 
 // A sphere thrown at a round wall at 45 degrees azimuth: one contact region, one damper
