@@ -1,5 +1,6 @@
 // voxpack flow IN.h5 -o FLOW.json [--axis z|y|x] [--periodic] [--tolerance T]
-// [--max-steps N] [--field OUT.h5] [--csv DIR] [--roi-mm Z0:Z1] [--velocity-mm-s V]:
+// [--max-steps N] [--field OUT.h5] [--csv DIR] [--roi-mm Z0:Z1] [--velocity-mm-s V]
+// [--walls halfway|interpolated]:
 // permeability, tortuosity and pressure drop of a bed by lattice Boltzmann.
 #include <iostream>
 
@@ -55,6 +56,11 @@ class FlowCommand final : public Command {
         ->capture_default_str();
     sub.add_option("--density-kg-m3", o_.densityKgM3, "fluid density (kg/m3)")
         ->capture_default_str();
+    sub.add_option("--walls", walls_,
+                   "halfway: bounce-back on the voxels; interpolated: links cut at the exact "
+                   "surfaces of the particle table and the container (keep --tau <= 1)")
+        ->check(CLI::IsMember({"halfway", "interpolated"}))
+        ->capture_default_str();
     sub.add_option("--particle-diameter-mm", o_.particleDiameterMm,
                    "d for the correlations (default: spheres' d from the particle table, "
                    "else 6(1-eps)/S_v)");
@@ -67,6 +73,7 @@ class FlowCommand final : public Command {
     if (!(o_.viscosityPaS > 0) || !(o_.densityKgM3 > 0))
       throw UsageError("--viscosity-pa-s and --density-kg-m3 must be positive");
     if (o_.lbm.checkInterval < 1) throw UsageError("--check-interval must be at least 1");
+    o_.walls = walls_ == "interpolated" ? flow::Walls::Interpolated : flow::Walls::Halfway;
     o_.lbm.precision = double_ ? flow::Precision::Double : flow::Precision::Float;
     o_.lbm.threads = resolveThreads(global.threads);
     std::optional<std::pair<double, double>> roi;
@@ -102,7 +109,7 @@ class FlowCommand final : public Command {
   }
 
  private:
-  std::string input_, output_, axis_ = "z", field_, csvDir_, roi_;
+  std::string input_, output_, axis_ = "z", field_, csvDir_, roi_, walls_ = "halfway";
   bool mirror_ = false, double_ = false;
   flow::FlowOptions o_;
   CLI::Option* roiOpt_ = nullptr;

@@ -10,6 +10,7 @@
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/spec.hpp"
 #include "voxpack/core/version.hpp"
+#include "walls.hpp"
 
 namespace voxpack::flow {
 namespace {
@@ -256,6 +257,18 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   j["particle_diameter_mm"] = finiteOrNull(dMm);
   j["particle_diameter_source"] = dSource;
   j["column_diameter_mm"] = col.present ? nlohmann::json(columnMm) : nlohmann::json(nullptr);
+  const bool interpolated = o.walls == Walls::Interpolated;
+  j["walls"] = interpolated ? "interpolated" : "halfway";
+  j["interpolated_links"] = 0;
+  j["wall_geometry"] = nullptr;
+  nlohmann::json warnings = nlohmann::json::array();
+  auto warn = [&](const std::string& text) {
+    warnings.push_back(text);
+    progress.message("flow: warning: " + text);
+  };
+  if (interpolated && o.lbm.tauPlus > 1.0 + 1e-12)
+    warn("interpolated walls are not tau-independent (+0.9 % on a tube at tau 2): keep --tau <= 1");
+  j["warnings"] = warnings;
 
   // Memory before anything is allocated: the dense lattice flags (2 bytes a cell of the
   // padded box) plus the solver's own estimate (reservoir layers counted as all fluid).
@@ -271,7 +284,10 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
       fluid += extra * cross;
     }
     const std::uint64_t box = checkedProduct({cross, along}, "flow lattice");
-    requireWithinBudget(2 * box + estimateLbmBytes(box, fluid, o.lbm.precision), budget,
+    // Interpolated walls: the signed distance (a float per box cell); the wall links are
+    // counted on the lattice once it is built (below).
+    const std::uint64_t distance = interpolated ? detail::kDistanceBytesPerCell * box : 0;
+    requireWithinBudget(2 * box + distance + estimateLbmBytes(box, fluid, o.lbm.precision), budget,
                         "flow (lattice Boltzmann)");
   }
   // Blocked: no path across the sample, reported at once (nothing to run).
@@ -295,6 +311,44 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   }
 
   Built built = buildDomain(bed, o);
+  if (interpolated) {
+    // Before the distance is allocated: the flags, the distance and the solver with every
+    // fluid-to-solid link interpolated (32 bytes each) must fit.
+    const std::uint64_t box = built.domain.fluid.size();
+    std::uint64_t fluid = 0;
+    for (std::uint8_t f : built.domain.fluid) fluid += f != 0;
+    const std::uint64_t links = detail::countWallLinks(built.domain, o.lbm.threads);
+    requireWithinBudget((2 + detail::kDistanceBytesPerCell) * box +
+                            estimateLbmBytes(box, fluid, o.lbm.precision, links),
+                        budget, "flow (lattice Boltzmann, interpolated walls)");
+    detail::DomainMap map;
+    map.axis = o.axis;
+    map.sampleStart = built.sampleStart;
+    map.sampleLength = built.sampleLength;
+    map.periodic = o.periodic;
+    map.mirror = !o.periodic && o.inflow == Inflow::Mirror;
+    map.reservoirs = !o.periodic && o.inflow == Inflow::Reservoirs;
+    const detail::WallReport wr = detail::buildWallDistance(bed, map, built.domain, o.lbm.threads);
+    nlohmann::json shapes = nlohmann::json::object();
+    for (const auto& [spec, n] : wr.halfwayShapes) {
+      shapes[spec] = n;
+      warn(std::to_string(n) + " particle(s) of shape '" + spec +
+           "' have no closed-form distance: halfway bounce-back on their surfaces");
+    }
+    if (wr.containerWalls.rfind("halfway", 0) == 0) warn("container walls: " + wr.containerWalls);
+    j["warnings"] = warnings;
+    j["wall_geometry"] = {{"particles", wr.particles},
+                          {"particles_exact", wr.particlesExact},
+                          {"particles_halfway", wr.particlesHalfway()},
+                          {"halfway_shapes", shapes},
+                          {"periodic_images", wr.imageParticles},
+                          {"container", wr.container.empty() ? nlohmann::json(nullptr)
+                                                             : nlohmann::json(wr.container)},
+                          {"container_walls", wr.containerWalls},
+                          {"distance_cells", wr.distanceCells},
+                          {"candidate_links", links},
+                          {"distance_s", wr.seconds}};
+  }
   LbmOptions lo = o.lbm;
   lo.axis = o.axis;
   // Force from a Poiseuille estimate in pores of hydraulic diameter 4 eps / S_v, so the
@@ -304,6 +358,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   dh = std::clamp(dh, 2.0, 1e4);
   lo.force = 32.0 * nu * o.latticeVelocity / (dh * dh);
   rep.lbm = runLbm(built.domain, lo, budget, progress);
+  std::vector<float>().swap(built.domain.signedDistance);  // the links hold what it gave
   const LbmResult& r = rep.lbm;
 
   // Volumes: mask voxels of the sample (times the mirror copies).
@@ -322,13 +377,27 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
     const std::int64_t r0 = built.sampleStart, r1 = built.sampleStart + built.sampleLength;
     std::vector<double> sum(static_cast<std::size_t>(dd[static_cast<std::size_t>(o.axis)]), 0.0),
         cnt(sum.size(), 0.0);
-    for (std::size_t c = 0; c < r.fluidCells; ++c) {
-      std::int64_t p[3];
-      unpack(r.cellOffset[c], dd, p);
-      const std::int64_t t = p[o.axis];
-      if (t >= r0 && t < r1) continue;
-      sum[static_cast<std::size_t>(t)] += r.fields.density[c] / 3.0;
-      cnt[static_cast<std::size_t>(t)] += 1;
+    // With interpolated walls the cells next to a wall are left out: the interpolation offsets
+    // their density (empty tube, walls + reservoirs: dp/dx / F 0.5033 from every cell, 0.5020
+    // from the cells off the wall, 0.5 exactly with halfway walls), and across a reservoir the
+    // pressure is uniform anyway. A reservoir whose every cell touches a wall uses them all.
+    for (int pass = 0; pass < 2; ++pass) {
+      for (std::size_t c = 0; c < r.fluidCells; ++c) {
+        std::int64_t p[3];
+        unpack(r.cellOffset[c], dd, p);
+        const std::int64_t t = p[o.axis];
+        if (t >= r0 && t < r1) continue;
+        if (pass == 0 && interpolated && detail::touchesSolid(built.domain, p)) continue;
+        sum[static_cast<std::size_t>(t)] += r.fields.density[c] / 3.0;
+        cnt[static_cast<std::size_t>(t)] += 1;
+      }
+      const bool empty = cnt[static_cast<std::size_t>(r0 - 1)] == 0 ||
+                         cnt[static_cast<std::size_t>(r0 - 2)] == 0 ||
+                         cnt[static_cast<std::size_t>(r1)] == 0 ||
+                         cnt[static_cast<std::size_t>(r1 + 1)] == 0;
+      if (!interpolated || !empty) break;
+      std::fill(sum.begin(), sum.end(), 0.0);  // every cell touches a wall: all of them
+      std::fill(cnt.begin(), cnt.end(), 0.0);
     }
     auto layer = [&](std::int64_t t) {
       const std::size_t i = static_cast<std::size_t>(t);
@@ -360,6 +429,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   j["reynolds"] = dMm > 0 ? us * (dMm / h) / nu : us * dh / nu;
   j["reynolds_definition"] = "lattice run: u_superficial d / nu (Stokes regime when << 1)";
   j["steps"] = r.steps;
+  j["interpolated_links"] = r.interpolatedLinks;
   j["residual"] = finiteOrNull(r.residual);
   j["mlups"] = r.mlups;
   j["fluid_cells"] = r.fluidCells;

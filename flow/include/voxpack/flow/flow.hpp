@@ -19,6 +19,12 @@ enum class Inflow {
   Mirror       ///< the sample followed by its mirror image, periodic along the axis
 };
 
+/// The walls the solver sees.
+enum class Walls {
+  Halfway,      ///< halfway bounce-back on the voxels (the staircase)
+  Interpolated  ///< Bouzidi links cut at the exact surfaces of the particle table and container
+};
+
 /// Options of computeFlow.
 struct FlowOptions {
   int axis = 0;           ///< flow axis in array order: 0 = z, 1 = y, 2 = x
@@ -31,6 +37,10 @@ struct FlowOptions {
   double viscosityPaS = 1.0e-3;        ///< fluid dynamic viscosity (water at 20 C)
   double densityKgM3 = 998.0;          ///< fluid density (water at 20 C)
   double particleDiameterMm = 0;       ///< d for the correlations; 0 = 6(1-eps)/S_v (Sauter)
+  /// Interpolated: the signed distance of the particle table's shapes with a closed form
+  /// (sphere, cylinder, ring, box) and of a cylinder or box container (provenance
+  /// scene.container) sets the wall cut of each link; other surfaces stay halfway.
+  Walls walls = Walls::Halfway;
 };
 
 /// The result of computeFlow: the JSON record and the solver state for field output.
