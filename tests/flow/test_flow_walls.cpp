@@ -259,6 +259,22 @@ TEST(FlowWalls, PosedCylinderDistance) {
   EXPECT_EQ(checked, rep.distanceCells);
 }
 
+// The distance (4 bytes per box cell) and the wall links count against --memory-limit before
+// anything of them is allocated: a budget the halfway run fits in refuses the interpolated one.
+TEST(FlowWalls, DistanceCountsAgainstTheMemoryBudget) {
+  const Bed bed = tubeBed(6, 14, 6.0);
+  FlowOptions o = options(Walls::Halfway);
+  o.periodic = true;
+  o.lbm.maxSteps = 10;
+  const std::uint64_t box = bed.indicator.size();
+  const std::uint64_t fluid = summarize(bed).voidVoxels;
+  const MemoryBudget budget{2 * box + estimateLbmBytes(box, fluid, Precision::Float) + 2 * box};
+  EXPECT_NO_THROW(computeFlow(bed, o, budget));
+  o.walls = Walls::Interpolated;
+  EXPECT_THROW(computeFlow(bed, o, budget), ResourceError);
+  EXPECT_NO_THROW(computeFlow(bed, o, MemoryBudget{4 * budget.limitBytes}));
+}
+
 // Through the binary: --walls, the default, the JSON keys and a bad value.
 TEST(FlowWalls, CliOption) {
   test::TempDir tmp;
