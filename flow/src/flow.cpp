@@ -377,27 +377,13 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
     const std::int64_t r0 = built.sampleStart, r1 = built.sampleStart + built.sampleLength;
     std::vector<double> sum(static_cast<std::size_t>(dd[static_cast<std::size_t>(o.axis)]), 0.0),
         cnt(sum.size(), 0.0);
-    // With interpolated walls the cells next to a wall are left out: the interpolation offsets
-    // their density (empty tube, walls + reservoirs: dp/dx / F 0.5033 from every cell, 0.5020
-    // from the cells off the wall, 0.5 exactly with halfway walls), and across a reservoir the
-    // pressure is uniform anyway. A reservoir whose every cell touches a wall uses them all.
-    for (int pass = 0; pass < 2; ++pass) {
-      for (std::size_t c = 0; c < r.fluidCells; ++c) {
-        std::int64_t p[3];
-        unpack(r.cellOffset[c], dd, p);
-        const std::int64_t t = p[o.axis];
-        if (t >= r0 && t < r1) continue;
-        if (pass == 0 && interpolated && detail::touchesSolid(built.domain, p)) continue;
-        sum[static_cast<std::size_t>(t)] += r.fields.density[c] / 3.0;
-        cnt[static_cast<std::size_t>(t)] += 1;
-      }
-      const bool empty = cnt[static_cast<std::size_t>(r0 - 1)] == 0 ||
-                         cnt[static_cast<std::size_t>(r0 - 2)] == 0 ||
-                         cnt[static_cast<std::size_t>(r1)] == 0 ||
-                         cnt[static_cast<std::size_t>(r1 + 1)] == 0;
-      if (!interpolated || !empty) break;
-      std::fill(sum.begin(), sum.end(), 0.0);  // every cell touches a wall: all of them
-      std::fill(cnt.begin(), cnt.end(), 0.0);
+    for (std::size_t c = 0; c < r.fluidCells; ++c) {
+      std::int64_t p[3];
+      unpack(r.cellOffset[c], dd, p);
+      const std::int64_t t = p[o.axis];
+      if (t >= r0 && t < r1) continue;
+      sum[static_cast<std::size_t>(t)] += r.fields.density[c] / 3.0;
+      cnt[static_cast<std::size_t>(t)] += 1;
     }
     auto layer = [&](std::int64_t t) {
       const std::size_t i = static_cast<std::size_t>(t);

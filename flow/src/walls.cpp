@@ -249,17 +249,6 @@ bool shapeSignedDistanceMm(const std::string& spec, const Vec3& bodyMm, double& 
   return true;
 }
 
-bool touchesSolid(const LbmDomain& dom, const std::int64_t p[3]) {
-  const auto& d = dom.dims;
-  for (int q = 1; q < kQ; ++q) {
-    std::int64_t n[3] = {p[0], p[1], p[2]};
-    if (neighbourOf(d, dom.periodic, n, kC[q]) &&
-        !dom.fluid[static_cast<std::size_t>((n[0] * d[1] + n[1]) * d[2] + n[2])])
-      return true;
-  }
-  return false;
-}
-
 std::uint64_t countWallLinks(const LbmDomain& dom, int threads) {
   const auto& d = dom.dims;
   std::uint64_t links = 0;

@@ -48,9 +48,6 @@ inline constexpr std::uint64_t kDistanceBytesPerCell = sizeof(float);
 /// links that may become interpolated), for the memory estimate.
 std::uint64_t countWallLinks(const LbmDomain& domain, int threads);
 
-/// True when the cell p (z, y, x) of `domain` has a solid D3Q19 neighbour.
-bool touchesSolid(const LbmDomain& domain, const std::int64_t p[3]);
-
 /// Fills domain.signedDistance (box cells, > 0 in fluid, voxels) from the particle table and
 /// the container of `bed`'s provenance. Cells within one D3Q19 link of a fluid/solid
 /// interface get min(container, particles) evaluated at their centre; every other cell

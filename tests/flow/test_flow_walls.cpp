@@ -110,7 +110,7 @@ TEST(FlowWalls, SphereBedFileMatchesZickHomsyPhi0343) { expectZickHomsy(0.343, 1
 
 // (b) An empty cylinder container: Hagen-Poiseuille Q = F pi R^4 / (8 nu) with the exact
 // radius; superficial k over the mask's area A is pi R^4 / (8 A). Walls + reservoirs (the
-// default): +0.45 % at R 10 and 9.7. The reservoirs' pressure gradient is half the force in
+// default): +0.7 % at R 10 and 9.7. The reservoirs' pressure gradient is half the force in
 // an empty tube, and the interpolated wall under a pressure gradient is not quite the one
 // under the body force (the error grows with the reservoirs' share: docs/flow.md); mirror and
 // periodic (body force alone): +0.04 %, as the solver's own tube.
