@@ -413,6 +413,8 @@ class DemMode final : public PackMode {
         {"max_overlap_d", r.maxOverlapMm / dRef},
         {"mean_overlap_d", r.meanOverlapMm / dRef},
         {"contacts", r.contacts},
+        {"interpenetrations", r.interpenetrations},
+        {"max_overlap_wall_fraction", r.maxOverlapWallFraction},
         {"clipped_outside_mask_mm3", clippedMm3},
         {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
         {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},

@@ -53,6 +53,8 @@ TEST(CliPackDem, WritesALabelledBedWithProvenance) {
   EXPECT_DOUBLE_EQ(dem.at("restitution").get<double>(), 0.6);
   EXPECT_EQ(dem.at("contact").get<std::string>(), "levelset");
   EXPECT_GT(dem.at("time_step_s").get<double>(), 0);
+  EXPECT_EQ(dem.at("interpenetrations").get<int>(), 0);
+  EXPECT_LT(dem.at("max_overlap_wall_fraction").get<double>(), 0.05);
   EXPECT_TRUE(bed.provenance.contains("status"));
   EXPECT_EQ(bed.provenance.at("seed").get<std::uint64_t>(), 1u);
 }

@@ -7,6 +7,8 @@
 #include <memory>
 
 #include "analytic.hpp"
+#include "voxpack/packer/dem_geometry.hpp"
+#include "voxpack/packer/shape.hpp"
 
 namespace voxpack::test {
 namespace {
@@ -149,6 +151,48 @@ TEST(DemContacts, RimImpactReboundsWithRequestedRestitution) {
   rimImpact(kPi / 4, 0.1, 0.0, 0.5, kinematic, energy);
   RecordProperty("rim_restitution_soft_energy", std::to_string(energy));
   EXPECT_NEAR(energy / 0.5, 1.0, 0.1);
+}
+
+// Ring B (d 6, di 3, l 2 mm; walls 1.5 mm) standing on edge (axis x) falls on the wall of
+// ring A lying flat: the most interpenetrating pairs seen and the deepest overlap over the
+// thinnest wall, over the impact (no gravity, no friction, no walls near).
+void ringOnRing(double stiffness, double speed, std::size_t& mostInterpenetrating,
+                double& deepestWallFraction) {
+  DemOptions o = quiet();
+  o.stiffnessNPerMm3 = stiffness;
+  o.contactStiffnessCap = 0;
+  const auto ring = packer::dem::demShape(packer::parseShape("ring:d=6,di=3,l=2"));
+  auto sys = system1(ring, 0.2, o, std::make_shared<TestBox>(200));
+  EXPECT_NEAR(sys->templates()[0].thinWallMm, 1.5, 0.01);
+  sys->addParticle(0, Vec3(0, 0, 50), Quat::Identity());
+  // B's lowest point (its outer rim) 0.05 mm above A's top face, over A's wall centre line.
+  sys->addParticle(0, Vec3(0, 2.25, 50 + 1 + 3 + 0.05),
+                   Quat(Eigen::AngleAxisd(kPi / 2, Vec3::UnitY())), Vec3(0, 0, -speed));
+  mostInterpenetrating = 0;
+  deepestWallFraction = 0;
+  const auto steps = static_cast<std::size_t>(8.0 / speed / sys->timeStepS()) + 1;
+  for (std::size_t s = 0; s < steps; ++s) {
+    sys->step();
+    mostInterpenetrating = std::max(mostInterpenetrating, sys->interpenetrationCount());
+    deepestWallFraction = std::max(deepestWallFraction, sys->maxOverlapWallFraction());
+  }
+}
+
+// Holed shapes: a gentle impact stays far from the thinnest wall and is no
+// interpenetration; a far too soft one drives B's rim through A's wall (past its medial
+// surface, where the level-set normal flips) and is counted.
+TEST(DemContacts, RingThroughRingWallIsCountedAsInterpenetration) {
+  std::size_t most = 0;
+  double deepest = 0;
+  ringOnRing(1.0, 100.0, most, deepest);
+  RecordProperty("gentle_wall_fraction", std::to_string(deepest));
+  EXPECT_EQ(most, 0u);
+  EXPECT_GT(deepest, 0.0);  // they touched
+  EXPECT_LT(deepest, 0.05);
+  ringOnRing(1e-4, 2000.0, most, deepest);
+  RecordProperty("violent_wall_fraction", std::to_string(deepest));
+  EXPECT_GE(most, 1u);
+  EXPECT_GT(deepest, packer::dem::kInterpenetrationWallFraction);
 }
 
 // A sphere thrown at a round wall at 45 degrees azimuth: one contact region, one damper

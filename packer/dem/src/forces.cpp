@@ -76,6 +76,8 @@ void DemSystem::Impl::computeForces() {
   maxDepth = 0;
   sumDepth = 0;
   contactCount = 0;
+  interpenetrations = 0;
+  maxWallFraction = 0;
   for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
     Pair& p = pairs[pi];
     const PairOut& po = pairOut[pi];
@@ -90,6 +92,8 @@ void DemSystem::Impl::computeForces() {
     maxDepth = std::max(maxDepth, po.c.maxDepth);
     sumDepth += po.c.maxDepth;
     ++contactCount;
+    maxWallFraction = std::max(maxWallFraction, po.c.wallFraction);
+    if (po.c.flipped || po.c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
   }
   for (std::size_t i = 0; i < n; ++i) {
     elastic += wallElastic[i];

@@ -16,14 +16,21 @@ Hit DemSystem::Impl::nodeHit(const ParticleTemplate& ta, const ParticleTemplate&
   Hit h;
   h.p = xa + ra * ta.nodeP[ni];
   h.depth = -s;
+  const Vec3 nb = rbS * tb.shape->normal(pb);  // b's outward normal at the node
   if (opt.contact == ContactModel::kVoxel) {
     h.dir = -(ra * ta.nodeFace[ni]);
     h.kw = k * ta.nodeArea[ni] * factor;
   } else {
-    h.dir = rbS * tb.shape->normal(pb);
+    h.dir = nb;
     h.kw = k * ta.nodeLsArea[ni] * factor;
   }
   h.dir *= sign;
+  // Interpenetration: the node is deep against b's thinnest wall, or it has passed b's
+  // medial surface, where b's normal turns to face along the node's own outward normal
+  // (within 60 deg: at an edge of a a legitimate contact has the two normals up to ~75 deg
+  // apart, e.g. a ring's side node under another ring's curved rim).
+  h.wallFraction = h.depth / tb.thinWallMm;
+  h.flipped = nb.dot(ra * ta.nodeNormal[ni]) > 0.5;
   return h;
 }
 
@@ -140,7 +147,9 @@ ContactOut DemSystem::Impl::spherePair(const Pair& p) const {
   const double area = kPi * std::max(0.0, ri * ri - ai * ai);
   const double volume = kPi * delta * delta *
                         (c2 + 2 * c * (ri + rj) - 3 * (ri * ri + rj * rj) + 6 * ri * rj) / (12 * c);
-  return closedContact(volume, area, delta, n, cp, body(p.i), body(p.j), pairLaw, p.xi);
+  ContactOut out = closedContact(volume, area, delta, n, cp, body(p.i), body(p.j), pairLaw, p.xi);
+  out.wallFraction = delta / (2 * std::min(ri, rj));  // a sphere's thinnest wall is its d
+  return out;
 }
 
 }  // namespace voxpack::packer::dem

@@ -445,6 +445,19 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
   result.maxOverlapMm = sys.maxOverlapMm();
   result.meanOverlapMm = sys.meanOverlapMm();
   result.contacts = sys.contactCount();
+  result.interpenetrations = sys.interpenetrationCount();
+  result.maxOverlapWallFraction = sys.maxOverlapWallFraction();
+  if (result.interpenetrations > 0) {
+    std::ostringstream m;
+    m << "dem: " << result.interpenetrations
+      << " particle pairs interpenetrate at the end (an overlap past "
+      << kInterpenetrationWallFraction
+      << " of the thinnest wall, or a flipped normal); deepest overlap "
+      << result.maxOverlapWallFraction << " of the thinnest wall: try a stiffer --stiffness or a "
+      << "smaller --target-overlap";
+    result.messages.push_back(m.str());
+    progress.message("warning: " + m.str());
+  }
   result.counters = sys.counters();
   result.wallTimeS =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();

@@ -249,6 +249,8 @@ double DemSystem::meanOverlapMm() const {
   return impl_->contactCount ? impl_->sumDepth / static_cast<double>(impl_->contactCount) : 0;
 }
 std::size_t DemSystem::contactCount() const { return impl_->contactCount; }
+std::size_t DemSystem::interpenetrationCount() const { return impl_->interpenetrations; }
+double DemSystem::maxOverlapWallFraction() const { return impl_->maxWallFraction; }
 bool DemSystem::diverged() const { return impl_->diverged; }
 double DemSystem::timeStepS() const { return impl_->dt; }
 double DemSystem::contactTimeS() const { return impl_->tc; }

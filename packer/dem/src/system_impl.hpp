@@ -29,7 +29,9 @@ struct Hit {
   Vec3 p;
   Vec3 dir;
   double depth;
-  double kw;  ///< face stiffness x area weight x side factor (g/s^2)
+  double kw;                ///< face stiffness x area weight x side factor (g/s^2)
+  double wallFraction = 0;  ///< depth / thinnest wall of the body the node is in (pairs)
+  bool flipped = false;     ///< the other body's normal faces the node's own outward normal
 };
 
 /// Kinematics and inertia of one side of a contact (a wall has zero inverse mass).
@@ -63,6 +65,8 @@ struct ContactOut {
   bool touching = false;
   double maxDepth = 0;
   double elastic = 0;
+  double wallFraction = 0;  ///< deepest hit over the thinnest wall it is in (pairs)
+  bool flipped = false;     ///< some hit has a flipped normal (pairs)
 };
 
 /// Contact parameters of one kind of contact (particle-particle or particle-wall).
@@ -178,6 +182,8 @@ struct DemSystem::Impl {
   double maxDepth = 0;
   double sumDepth = 0;  // over touching contacts, last force evaluation
   std::uint64_t contactCount = 0;
+  std::uint64_t interpenetrations = 0;  // pairs, last force evaluation
+  double maxWallFraction = 0;           // pairs, last force evaluation
   DemCounters counters;
 
   double rMaxMm = 0;      // largest bounding radius of the templates

@@ -108,6 +108,27 @@ ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double vox
       t.flatAreaMm2 = std::max(t.flatAreaMm2, area);
     }
 
+  // Thinnest wall: from every node, the chord through the body along its inward normal,
+  // marched in steps of h/4 to where the shape is left (then bisected to 1e-3 h).
+  t.thinWallMm = 2 * t.radiusMm;
+  for (std::size_t m = 0; m < t.nodeP.size(); ++m) {
+    const Vec3 p = t.principalToShape * t.nodeP[m];
+    const Vec3 in = -(t.principalToShape * t.nodeNormal[m]);
+    double lo = 0, hi = 0;
+    for (double s = 0.25 * h; s <= 2 * t.radiusMm + h; s += 0.25 * h)
+      if (shape->signedDistanceMm(p + s * in) > 0) {
+        lo = s - 0.25 * h;
+        hi = s;
+        break;
+      }
+    if (!(hi > 0) || lo >= t.thinWallMm) continue;
+    while (hi - lo > 1e-3 * h) {
+      const double mid = 0.5 * (lo + hi);
+      (shape->signedDistanceMm(p + mid * in) > 0 ? hi : lo) = mid;
+    }
+    t.thinWallMm = std::min(t.thinWallMm, hi);
+  }
+
   // Two-level bounding-sphere hierarchy: 3^3 coarse cells of 3^3 fine cells each, so a pair
   // visits only the nodes near its contact.
   const double r = t.radiusMm * (1 + 1e-9) + h;
@@ -185,6 +206,7 @@ ParticleTemplate scaledTemplate(const ParticleTemplate& base, std::shared_ptr<co
   t.radiusMm = base.radiusMm * s;
   t.diameterMm = base.diameterMm * s;
   t.flatAreaMm2 = base.flatAreaMm2 * s * s;
+  t.thinWallMm = base.thinWallMm * s;
   if (!nodes) return t;
   t.nodeP = base.nodeP;
   for (auto& p : t.nodeP) p *= s;

@@ -167,11 +167,15 @@ struct ParticleTemplate {
   double radiusMm = 0;                       ///< bounding radius (mm)
   double diameterMm = 0;                     ///< volume-equivalent diameter (mm)
   double flatAreaMm2 = 0;                    ///< largest flat face (for the time step)
-  std::vector<Vec3> nodeP;                   ///< node on the exact surface (principal frame)
-  std::vector<Vec3> nodeFace;                ///< voxel face normal of the node (principal)
-  std::vector<Vec3> nodeNormal;              ///< exact outward normal (principal)
-  std::vector<double> nodeArea;              ///< voxel face area h^2 (mm^2)
-  std::vector<double> nodeLsArea;            ///< h^2 * (face . normal): true-area weight
+  /// Thinnest wall (mm): the shortest chord through the body along the inward normal of a
+  /// surface node (a sphere: d; a ring: min(wall, length)). Past half of it the other body's
+  /// nodes cross the medial surface and the level-set normal flips (interpenetration).
+  double thinWallMm = 0;
+  std::vector<Vec3> nodeP;         ///< node on the exact surface (principal frame)
+  std::vector<Vec3> nodeFace;      ///< voxel face normal of the node (principal)
+  std::vector<Vec3> nodeNormal;    ///< exact outward normal (principal)
+  std::vector<double> nodeArea;    ///< voxel face area h^2 (mm^2)
+  std::vector<double> nodeLsArea;  ///< h^2 * (face . normal): true-area weight
   /// Bounding spheres of node groups, two levels (coarse groups of fine groups).
   struct Cluster {
     Vec3 centre = Vec3::Zero();  ///< principal frame
@@ -216,6 +220,10 @@ struct DemCounters {
   std::uint64_t nodeListRebuilds = 0;         ///< contact node-list searches (pairs + walls)
 };
 
+/// A pair overlap deeper than this fraction of the thinnest wall of the body it enters is an
+/// interpenetration: half-way to that wall's medial surface, where the level-set normal flips.
+inline constexpr double kInterpenetrationWallFraction = 0.25;
+
 /// A rigid-body system of template particles in a container (the integrator).
 class DemSystem {
  public:
@@ -250,6 +258,12 @@ class DemSystem {
   double maxOverlapMm() const;                  ///< deepest node penetration, last step
   double meanOverlapMm() const;      ///< mean of the pair contacts' deepest overlap, last step
   std::size_t contactCount() const;  ///< touching particle pairs, last step
+  /// Touching pairs that interpenetrate, last step: a node deeper than
+  /// kInterpenetrationWallFraction of the other body's thinnest wall, or a node whose
+  /// other-body normal has flipped (within 60 deg of the node's own outward normal).
+  std::size_t interpenetrationCount() const;
+  /// Deepest pair overlap over the thinnest wall of the body it enters, last step.
+  double maxOverlapWallFraction() const;
   /// True once the state blew up (non-finite, or a runaway speed); step() then does nothing.
   bool diverged() const;
   double timeStepS() const;                                ///< chosen step (s)
@@ -368,6 +382,8 @@ struct DemResult {
   double maxOverlapMm = 0;                 ///< deepest node penetration at the end
   double meanOverlapMm = 0;                ///< mean deepest overlap of pair contacts, end
   std::size_t contacts = 0;                ///< touching particle pairs at the end
+  std::size_t interpenetrations = 0;       ///< interpenetrating pairs at the end
+  double maxOverlapWallFraction = 0;       ///< deepest overlap / thinnest wall, end
   DemCounters counters;                    ///< work done
   std::vector<std::string> messages;       ///< chosen settings and warnings
 };
