@@ -8,6 +8,7 @@
 #include <tuple>
 #include <vector>
 
+#include "column_detail.hpp"
 #include "voxpack/core/errors.hpp"
 
 namespace voxpack::ingest {
@@ -260,18 +261,9 @@ ColumnFit fitColumn(const Grid<std::uint8_t>& ind, const ColumnFitOptions& o) {
 Grid<std::uint8_t> columnMask(const Lattice& l, const ColumnFit& c) {
   Grid<std::uint8_t> mask(l, 0);
   const double r2 = c.radiusMm * c.radiusMm;
-  for (std::int64_t k = 0; k < l.nz(); ++k) {
-    const double z = l.originMm[0] + static_cast<double>(k) * l.spacingMm[0];
-    const double ax = c.axisXMm + c.slopeX * (z - c.zRefMm);
-    const double ay = c.axisYMm + c.slopeY * (z - c.zRefMm);
-    for (std::int64_t j = 0; j < l.ny(); ++j) {
-      const double dy = l.originMm[1] + static_cast<double>(j) * l.spacingMm[1] - ay;
-      for (std::int64_t i = 0; i < l.nx(); ++i) {
-        const double dx = l.originMm[2] + static_cast<double>(i) * l.spacingMm[2] - ax;
-        mask(k, j, i) = dx * dx + dy * dy < r2;
-      }
-    }
-  }
+  for (std::int64_t k = 0; k < l.nz(); ++k)
+    column_detail::forEachInPlane(
+        l, c, k, [&](std::int64_t j, std::int64_t i, double d2) { mask(k, j, i) = d2 < r2; });
   return mask;
 }
 

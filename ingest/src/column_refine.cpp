@@ -367,6 +367,9 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
     fit.sectors = sectorsUsed;
     fit.blurMm = global.sigma * sx;
     fit.wallThicknessMm = global.wall * sx;
+    // The squared fit's levels are in M^2 (the MRI wall carries no signal): not kept.
+    fit.wallLevel = o.squared ? 0.0 : global.coef[2];
+    fit.outsideLevel = o.squared ? 0.0 : global.coef[3];
     fit.refined = true;
     innerW = std::clamp(2.5 * global.sigma + 2.0, 3.0, 6.0);
   }

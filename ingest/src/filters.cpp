@@ -26,6 +26,25 @@ bridge::Raw<T> toRaw(const Grid<T>& g) {
 
 }  // namespace
 
+float boxMedianAt(const Grid<float>& image, int r, std::int64_t k, std::int64_t j, std::int64_t i,
+                  std::vector<float>& window) {
+  const Lattice& l = image.lattice();
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  window.clear();
+  for (std::int64_t c = -r; c <= r; ++c) {
+    const std::int64_t kk = std::clamp<std::int64_t>(k + c, 0, nz - 1);
+    for (std::int64_t b = -r; b <= r; ++b) {
+      const std::int64_t jj = std::clamp<std::int64_t>(j + b, 0, ny - 1);
+      const float* row = image.data() + l.offset(kk, jj, 0);
+      for (std::int64_t a = -r; a <= r; ++a)
+        window.push_back(row[std::clamp<std::int64_t>(i + a, 0, nx - 1)]);
+    }
+  }
+  auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
+  std::nth_element(window.begin(), mid, window.end());
+  return *mid;
+}
+
 Grid<float> medianFilter(const Grid<float>& image, int r, int threads) {
   if (r < 1 || r > 5) throw InputError("median radius must be 1..5 voxels");
   const Lattice& l = image.lattice();
@@ -38,21 +57,7 @@ Grid<float> medianFilter(const Grid<float>& image, int r, int threads) {
 #pragma omp for schedule(dynamic, 1)
     for (std::int64_t k = 0; k < nz; ++k)
       for (std::int64_t j = 0; j < ny; ++j)
-        for (std::int64_t i = 0; i < nx; ++i) {
-          window.clear();
-          for (std::int64_t c = -r; c <= r; ++c) {
-            const std::int64_t kk = std::clamp<std::int64_t>(k + c, 0, nz - 1);
-            for (std::int64_t b = -r; b <= r; ++b) {
-              const std::int64_t jj = std::clamp<std::int64_t>(j + b, 0, ny - 1);
-              const float* row = image.data() + l.offset(kk, jj, 0);
-              for (std::int64_t a = -r; a <= r; ++a)
-                window.push_back(row[std::clamp<std::int64_t>(i + a, 0, nx - 1)]);
-            }
-          }
-          auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
-          std::nth_element(window.begin(), mid, window.end());
-          out(k, j, i) = *mid;
-        }
+        for (std::int64_t i = 0; i < nx; ++i) out(k, j, i) = boxMedianAt(image, r, k, j, i, window);
   }
   return out;
 }
@@ -64,17 +69,7 @@ Grid<float> crossMedianFilter(const Grid<float>& image, int threads) {
 #pragma omp parallel for num_threads(std::max(1, threads)) schedule(dynamic, 1)
   for (std::int64_t k = 0; k < nz; ++k)
     for (std::int64_t j = 0; j < ny; ++j)
-      for (std::int64_t i = 0; i < nx; ++i) {
-        float w[7] = {image(k, j, i),
-                      image(std::max<std::int64_t>(k - 1, 0), j, i),
-                      image(std::min(k + 1, nz - 1), j, i),
-                      image(k, std::max<std::int64_t>(j - 1, 0), i),
-                      image(k, std::min(j + 1, ny - 1), i),
-                      image(k, j, std::max<std::int64_t>(i - 1, 0)),
-                      image(k, j, std::min(i + 1, nx - 1))};
-        std::nth_element(w, w + 3, w + 7);
-        out(k, j, i) = w[3];
-      }
+      for (std::int64_t i = 0; i < nx; ++i) out(k, j, i) = crossMedianAt(image, k, j, i);
   return out;
 }
 

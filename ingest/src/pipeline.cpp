@@ -7,6 +7,8 @@
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/version.hpp"
+#include "voxpack/ingest/column.hpp"
+#include "voxpack/ingest/filters.hpp"
 #include "voxpack/ingest/ingest.hpp"
 #include "voxpack/ingest/resample.hpp"
 #include "voxpack/ingest/segment.hpp"
@@ -255,18 +257,86 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     if (in < 64) core.reset();
   }
   const Grid<std::uint8_t>* region = core ? &*core : nullptr;
+  std::string regionName = region ? "column core" : "whole image";
   PhaseLevels levels;
   double interiorSigma = 0.0;
   MeanVoidFraction mvf;
   bool volumeUsed = false;
   std::string method = name(o.threshold);
   double t = o.thresholdValue;
+  std::optional<Grid<std::uint8_t>> mask;
+  nlohmann::json wallJson = nullptr;
+  bool medianSkipped = false;
+  std::string medianNote;
   if (wantVolume) {
-    levels = fitPhaseLevels(raw, region, voidBright, model);
-    // The reported noise sigma comes from a homogeneous region (deep in the void phase);
-    // the histogram's reads ~10 % high. The levels keep the histogram fit: the interior
-    // means were measured to move the density further off (docs/ingest.md).
+    // The noise sigma comes from a homogeneous region (deep in the void phase); the
+    // histogram's flanks read it 10-35 % high under blur (docs/ingest.md).
     interiorSigma = phaseInteriorStats(raw, prelim, region, 1).sigma;
+    // Each phase's level is the mean deep inside it, where the blurred interfaces do not
+    // reach (3 blur sigma, at least 3 voxels): the histogram's peaks are pulled towards each
+    // other by the partial-volume voxels. An MRI signal-free phase has no mean to read
+    // there but sigma sqrt(pi/2); a phase without enough deep voxels keeps its peak.
+    PhaseHints hints;
+    hints.noiseSigma = interiorSigma;
+    const int deep = std::max(3, static_cast<int>(std::ceil(3.0 * blurVox)));
+    for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
+      const InteriorStats st = phaseInteriorStats(raw, prelim, region, phase, deep);
+      if (st.pairs > 0) (phase ? hints.voidMean : hints.solidMean) = st.mean;
+    }
+    levels = fitPhaseLevels(raw, region, voidBright, model, &hints);
+    // The 7-point median closes void throats one or two voxels wide: on coarse images
+    // (measured: +0.016 density at 10 voxels per d) the threshold cuts the raw image instead.
+    if (levels.clear && o.denoise == DenoiseMethod::Median && o.medianMinVoxelsPerD > 0.0) {
+      const double vpd = voxelsPerDiameter(prelim, region);
+      if (vpd > 0.0 && vpd < o.medianMinVoxelsPerD) {
+        medianSkipped = true;
+        medianNote = "median not used for the threshold: " + std::to_string(vpd) +
+                     " voxels per particle diameter < " + std::to_string(o.medianMinVoxelsPerD);
+      }
+    }
+    // The wall's blur darkens (MRI) or brightens (XMT) the bed next to it: divided out of
+    // the raw and the denoised image, after which the porosity is aimed over the whole
+    // column instead of its core (docs/ingest.md, "Wall-blur correction").
+    if (levels.clear && column.found && column.refined && column.blurMm > 0.0 &&
+        o.wallBlurCorrection) {
+      WallBlurCorrection wc;
+      wc.blurMm = column.blurMm;
+      wc.rician = model == NoiseModel::Rician;
+      wc.noiseSigma = interiorSigma > 0.0 ? interiorSigma : levels.noiseSigma;
+      wc.wallLevel = column.wallLevel;
+      wc.outsideLevel = column.outsideLevel;
+      wc.wallThicknessMm = column.wallThicknessMm;
+      const std::size_t changed = correctWallBlur(raw, column, wc, threads);
+      std::string imgHow;
+      if (o.deconvolveIterations > 0) {
+        imgHow = "not applied to the deconvolved image";
+      } else if (medianSkipped) {
+        imgHow = "the threshold cuts the corrected raw image";
+      } else if (o.resampleMm > 0.0 || o.denoise == DenoiseMethod::Curvature || o.n4) {
+        WallBlurCorrection wi = wc;
+        wi.noiseSigma = 0.0;  // a filtered image: plain division
+        correctWallBlur(img, column, wi, threads);
+        imgHow = "divided in the denoised image";
+      } else if (o.denoise == DenoiseMethod::None) {
+        refilterNearWall(img, raw, column, wc, 0, false, threads);
+        imgHow = "copied from the corrected raw image";
+      } else {
+        refilterNearWall(img, raw, column, wc, o.medianRadiusVoxels,
+                         o.denoise == DenoiseMethod::MedianBox, threads);
+        imgHow = "median recomputed from the corrected raw image";
+      }
+      core.reset();
+      mask = columnMask(lat, column);
+      region = &*mask;
+      regionName = "column";
+      wallJson = {{"applied", true},
+                  {"voxels", changed},
+                  {"blur_mm", column.blurMm},
+                  {"reach_mm", wc.reachSigmas * wc.blurMm},
+                  {"model", wc.rician ? "rician (signal-free wall)" : "grey levels"},
+                  {"denoised_image", imgHow}};
+    }
+    if (medianSkipped && o.deconvolveIterations == 0) img = raw;
     if (levels.clear) mvf = meanVoidFraction(raw, region, levels, blurVox, prelim);
     // A mean-intensity porosity far from Otsu's means the two-peak model does not hold
     // (e.g. a real image whose grey levels are not two blurred phases): keep Otsu.
@@ -316,7 +386,13 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   timing["segment_s"] = seconds(t0);
 
   Bed& bed = res.bed;
-  if (column.found) bed.mask = columnMask(lat, column);
+  if (mask) {
+    bed.mask = std::move(*mask);
+    mask.reset();
+    region = &*bed.mask;
+  } else if (column.found) {
+    bed.mask = columnMask(lat, column);
+  }
 
   ImageQuality q;
   q.voxelMm = voxel;
@@ -371,7 +447,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                       {"otsu_value", finiteOrNull(tOtsu)},
                       {"void", voidBright ? "bright" : "dark"},
                       {"void_from", polaritySource},
-                      {"region", region ? "column core" : "whole image"},
+                      {"region", regionName},
                       {"porosity_segmented_region", finiteOrNull(achieved)}};
   if (wantVolume) {
     rep["phases"] = {{"clear", levels.clear},
@@ -402,6 +478,10 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   rep["cleanup"] = {{"specks_removed", specks}, {"holes_filled", holes}};
   if (o.n4) rep["n4"] = {{"field_max_over_min", finiteOrNull(n4Ratio)}};
   if (o.deconvolveIterations > 0) rep["deconvolution"] = deconvolution;
+  if (medianSkipped) rep["options"]["denoise_note"] = medianNote;
+  if (wantVolume)
+    rep["wall_blur_correction"] =
+        wallJson.is_null() ? nlohmann::json{{"applied", false}} : wallJson;
   rep["column"] = columnJson(column, o.column);
   if (o.labels)
     rep["labels"] = {{"count", labelCount}, {"marker_depth_voxels", o.labelMarkerDepthVoxels}};

@@ -28,6 +28,8 @@ struct ColumnFit {
   double blurMm = 0.0;           ///< Gaussian sigma of the wall's edge-spread function, mm
   double wallThicknessMm = 0.0;  ///< wall thickness seen in the grey profile, mm (0: unknown)
   int sectors = 0;               ///< slab x sector edge fits used by the refinement
+  double wallLevel = 0.0;        ///< grey level of the wall (refined, grey-value fit; else 0)
+  double outsideLevel = 0.0;     ///< grey level beyond the wall (refined, grey-value fit; else 0)
   std::string note;              ///< why none was found, or how it was set
 };
 
@@ -61,6 +63,32 @@ struct ColumnRefineOptions {
 /// seen.
 ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
                        const ColumnRefineOptions& options = {});
+
+/// How correctWallBlur divides the blurred wall out of the grey values next to it.
+struct WallBlurCorrection {
+  double blurMm = 0.0;           ///< Gaussian sigma of the wall's edge-spread function, mm
+  bool rician = false;           ///< MRI magnitude and a signal-free wall (else grey levels, below)
+  double noiseSigma = 0.0;       ///< rician: channel noise sigma (0: plain division by w)
+  double wallLevel = 0.0;        ///< grey levels: the wall's level
+  double outsideLevel = 0.0;     ///< grey levels: the level beyond the wall
+  double wallThicknessMm = 0.0;  ///< grey levels: wall thickness (0: no outside term)
+  double reachSigmas = 4.0;      ///< voxels within this many blur sigma of the wall are corrected
+};
+
+/// Voxels whose centre lies inside the column within reachSigmas x blur of the wall: the
+/// blurred inside indicator of a planar wall at R, w = Phi((R - r) / blur) (> 0.5 there; the
+/// column refinement's model), is divided out. Grey levels: I' = (I - L_wall (1 - w) -
+/// (L_out - L_wall) Phi((r - R - T) / blur)) / w. Rician (signal A = w A_bed):
+/// M'^2 = (M^2 - 2 sigma^2) / w^2 + 2 sigma^2, the mean square of a voxel of signal A_bed.
+/// Returns the voxels changed (none when the column is not found or the blur is not > 0).
+std::size_t correctWallBlur(Grid<float>& image, const ColumnFit& column,
+                            const WallBlurCorrection& correction, int threads);
+
+/// Recomputes `filtered` (the 7-point median of `source`, or the (2r+1)^3 box median when
+/// `box`) at every voxel whose window holds a voxel correctWallBlur changes.
+void refilterNearWall(Grid<float>& filtered, const Grid<float>& source, const ColumnFit& column,
+                      const WallBlurCorrection& correction, int medianRadius, bool box,
+                      int threads);
 
 /// Mask of the voxels whose centre lies strictly inside the column (1 inside, 0 outside).
 Grid<std::uint8_t> columnMask(const Lattice& lattice, const ColumnFit& column);

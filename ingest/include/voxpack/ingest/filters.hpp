@@ -3,7 +3,9 @@
 /// Image filters: median (ours), and the ITK-backed curvature anisotropic diffusion,
 /// N4 bias-field correction and distance-map watershed.
 
+#include <algorithm>
 #include <cstdint>
+#include <vector>
 
 #include "voxpack/core/grid.hpp"
 #include "voxpack/core/progress.hpp"
@@ -16,6 +18,26 @@ Grid<float> medianFilter(const Grid<float>& image, int radiusVoxels, int threads
 /// Median of each voxel and its 6 face neighbours (edges clamped): removes noise like the
 /// 3^3 box but keeps one-voxel-wide pores and throats, which the box erases.
 Grid<float> crossMedianFilter(const Grid<float>& image, int threads);
+
+/// crossMedianFilter's value at one voxel.
+inline float crossMedianAt(const Grid<float>& image, std::int64_t k, std::int64_t j,
+                           std::int64_t i) {
+  const Lattice& l = image.lattice();
+  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
+  float w[7] = {image(k, j, i),
+                image(std::max<std::int64_t>(k - 1, 0), j, i),
+                image(std::min(k + 1, nz - 1), j, i),
+                image(k, std::max<std::int64_t>(j - 1, 0), i),
+                image(k, std::min(j + 1, ny - 1), i),
+                image(k, j, std::max<std::int64_t>(i - 1, 0)),
+                image(k, j, std::min(i + 1, nx - 1))};
+  std::nth_element(w, w + 3, w + 7);
+  return w[3];
+}
+
+/// medianFilter's value at one voxel; `window` is scratch.
+float boxMedianAt(const Grid<float>& image, int radiusVoxels, std::int64_t k, std::int64_t j,
+                  std::int64_t i, std::vector<float>& window);
 
 /// Options of curvatureDiffusion (ITK CurvatureAnisotropicDiffusionImageFilter).
 struct CurvatureDiffusionOptions {

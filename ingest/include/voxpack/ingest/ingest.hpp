@@ -53,7 +53,14 @@ struct IngestOptions {
   ColumnMode column = ColumnMode::Auto;  ///< column detection
   double columnXMm = 0.0, columnYMm = 0.0, columnRadiusMm = 0.0;  ///< for Explicit, mm
   ColumnFitOptions columnFit;                                     ///< for Auto
-  bool refineColumn = true;             ///< Auto: refine the fit on the grey wall step (sub-voxel)
+  bool refineColumn = true;  ///< Auto: refine the fit on the grey wall step (sub-voxel)
+  /// Volume threshold with a refined column: divide the wall's blur out of the grey values
+  /// next to it (correctWallBlur) and aim the porosity over the whole column.
+  bool wallBlurCorrection = true;
+  /// Volume threshold with the 7-point median: below this many voxels per particle diameter
+  /// (measured on the preliminary segmentation) the threshold cuts the raw image instead
+  /// (the median closes thin void throats). 0: always the median.
+  double medianMinVoxelsPerD = 18.0;
   bool labels = false;                  ///< distance-map watershed particle labels
   double labelMarkerDepthVoxels = 1.0;  ///< watershed marker depth, voxels, >= 0
   int calibrationRuns = 0;              ///< > 0: calibrate the density bias with this many phantoms

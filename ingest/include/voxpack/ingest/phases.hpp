@@ -6,6 +6,7 @@
 /// docs/ingest.md ("Volume-preserving threshold").
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #include "voxpack/core/grid.hpp"
@@ -27,11 +28,21 @@ struct PhaseLevels {
   std::string note;  ///< how the levels were found, or why they are not clear
 };
 
+/// What is known of the phases before the histogram is read (NaN / 0: unknown).
+struct PhaseHints {
+  double noiseSigma = 0.0;  ///< noise sigma measured elsewhere (phaseInteriorStats), > 0
+  double voidMean = std::numeric_limits<double>::quiet_NaN();   ///< mean deep in the void
+  double solidMean = std::numeric_limits<double>::quiet_NaN();  ///< mean deep in the solid
+};
+
 /// Fits the levels from the values of `image` where `region` != 0 (null: everywhere).
-/// The noise sigma comes from the outer flank of the bright peak (MRI: the Rayleigh mode
-/// of the signal-free solid).
+/// Without hints the noise sigma comes from the outer flank of the bright peak (MRI: the
+/// Rayleigh mode of the signal-free solid) and each level from a Gaussian fitted to its
+/// peak's outer flank. With hints->noiseSigma > 0 that sigma is used, a phase's level is
+/// its hinted mean when given, else the mean of a Gaussian of that width fitted to the far
+/// outer flank (1 to 3.5 sigma out), and an MRI signal-free phase reads sigma sqrt(pi/2).
 PhaseLevels fitPhaseLevels(const Grid<float>& image, const Grid<std::uint8_t>* region,
-                           bool voidBright, NoiseModel model);
+                           bool voidBright, NoiseModel model, const PhaseHints* hints = nullptr);
 
 /// Mean and noise sigma of the voxels deep inside one phase of a preliminary segmentation.
 struct InteriorStats {
@@ -43,8 +54,10 @@ struct InteriorStats {
 
 /// Statistics of `image` over x pairs lying at least 3 (else 2) voxels deep inside `phase`
 /// of `indicator` (a homogeneous region: the blurred signal is flat there); >= 2000 pairs.
+/// `depth` > 0: exactly that depth, else none (pairs = 0).
 InteriorStats phaseInteriorStats(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
-                                 const Grid<std::uint8_t>* region, std::uint8_t phase);
+                                 const Grid<std::uint8_t>* region, std::uint8_t phase,
+                                 int depth = 0);
 
 /// Mean of a Rician variable of signal `a` and channel sigma `sigma`.
 double ricianMean(double a, double sigma);
