@@ -4,7 +4,9 @@ of known beds, before (Otsu + voxel-level column circle) and after (the default 
 
 usage: fidelity.py VOXPACK WORKDIR OUT.json [--study sweep|diagnosis|deconv|all] [--quick]
                    [--deconv N]   (the sweep also runs `--deconvolve N`: variant after+deconv)
-       fidelity.py VOXPACK WORKDIR OUT.json --case BED,VPD,SNR,BLUR,MODALITY [--diag]
+       fidelity.py VOXPACK WORKDIR OUT.json --case BED,VPD,SNR,BLUR,MODALITY[,SEED] [--diag]
+                   (--case may be repeated; --goal: the sweep's cases that carry a goal)
+                   [--variants after,before,...] (run only these variants)
 
 Beds, packed once into WORKDIR by `voxpack pack --mode mc --seed 1` (the lattice of the bed
 file, 30 voxels per d, is the truth; small on purpose so that the whole sweep fits in
@@ -188,11 +190,30 @@ def save():
         json.dump(result, f, indent=1, default=float)
 
 
-if "--case" in ARGS:  # one ad-hoc case: --case BED,VPD,SNR,BLUR,MODALITY, variants after/before
-    c = ARGS[ARGS.index("--case") + 1].split(",")
+ONLY = ARGS[ARGS.index("--variants") + 1].split(",") if "--variants" in ARGS else None
+if ONLY:
+    STD = [v for v in STD if v[0] in ONLY]
+    DIAG = [v for v in DIAG if v[0] in ONLY]
+    SWEEP = [v for v in SWEEP if v[0] in ONLY]
+
+
+def goal_cases():
+    """The sweep's cases that carry a goal (>= 10 voxels per d, SNR >= 10, blur <= 1)."""
+    out = [(n, v, 10, 1, "mri") for n in ("spheres", "cylinders") for v in (10, 15, 20, 30)]
+    out += [("spheres", v, s, b, "mri") for v in (10, 15) for s in (10, 20, 50)
+            for b in (0, 0.5, 1) if not (s == 10 and b == 1)]
+    out += [(n, v, 10, 1, "xmt") for n in ("spheres", "cylinders") for v in (10, 20)]
+    return out
+
+
+ADHOC = [a.split(",") for k, a in zip(ARGS, ARGS[1:]) if k == "--case"]
+if "--goal" in ARGS:
+    ADHOC += [[str(x) for x in c] for c in goal_cases()]
+for c in ADHOC:  # ad-hoc cases: BED,VPD,SNR,BLUR,MODALITY[,SEED], variants after/before
     records += case(c[0], int(c[1]), float(c[2]), float(c[3]), c[4],
                     DIAG if "--diag" in ARGS else STD, "adhoc",
                     seed=int(c[5]) if len(c) > 5 else 3)
+    save()
     STUDY = "none"
 if STUDY in ("diagnosis", "all"):
     for name, vpd, blur in (("cylinders", 20, 0), ("cylinders", 20, 1), ("spheres", 10, 1)):
