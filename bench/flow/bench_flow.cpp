@@ -1,5 +1,6 @@
 // voxpack_bench_flow MODE [OUT.json]: MODE = sc | scb | speed | tau | precision | big.
 //   sc:        simple-cubic arrays over Zick & Homsy's range at 16/24/32/48 voxels per d
+//              (args: OUT RES_LIST CELL_CAP PHI_MIN PHI_MAX TAU)
 //   scb:       the same with interpolated (Bouzidi) walls on the exact sphere
 //   big:       random overlapping spheres at porosity 0.4 in n^3 (size, steps to converge)
 //   speed:     MLUPS on 1 and 2 threads against a copy kernel measured in the same run
@@ -79,6 +80,7 @@ json runCell(double phi, double perD, double tau, flow::Precision prec, int thre
             {"tau", tau},
             {"cells", r.fluidCells},
             {"threads_used", r.threads},
+            {"streaming", flow::streamingName(r.streaming)},
             {"wall", interpolated ? "interpolated (Bouzidi, exact sphere)" : "halfway (digitised)"},
             {"residual", r.residual}};
   for (const ZH& z : kZickHomsy)
@@ -158,11 +160,16 @@ int main(int argc, char** argv) {
     }
     const double cap = argc > 4 ? std::atof(argv[4]) : 3e5;
     const double phiMin = argc > 5 ? std::atof(argv[5]) : 0.0;  // skip sparser arrays
+    const double phiMax = argc > 6 ? std::atof(argv[6]) : 1.0;  // skip denser arrays
+    // Interpolated walls are not exactly tau-independent under TRT (docs/flow.md): tau 1 by
+    // default; halfway bounce-back with Lambda 3/16 is, so a larger tau only saves steps.
+    const double tau = argc > 7 ? std::atof(argv[7]) : (interp ? 1.0 : 2.0);
     json rows = json::array();
     for (const ZH& z : kZickHomsy)
       for (double r : res) {
-        if (z.phi < phiMin) {
-          rows.push_back({{"phi_target", z.phi}, {"voxels_per_d", r}, {"skipped", "phi < min"}});
+        if (z.phi < phiMin || z.phi > phiMax) {
+          rows.push_back(
+              {{"phi_target", z.phi}, {"voxels_per_d", r}, {"skipped", "phi outside [min, max]"}});
           continue;
         }
         const double n = r * std::cbrt(3.14159265 / (6 * z.phi));
@@ -170,8 +177,7 @@ int main(int argc, char** argv) {
           rows.push_back({{"phi_target", z.phi}, {"voxels_per_d", r}, {"skipped", "cells > cap"}});
           continue;
         }
-        // Interpolated walls are not exactly tau-independent under TRT (docs/flow.md): tau 1.
-        json row = runCell(z.phi, r, interp ? 1.0 : 2.0, flow::Precision::Float, 2, 1e-6, interp);
+        json row = runCell(z.phi, r, tau, flow::Precision::Float, 2, 1e-6, interp);
         if (argc > 2) std::ofstream(argv[2]) << json({{"partial_rows", rows}}).dump(1) << '\n';
         std::fprintf(stderr, "phi %.4f d %.0f: k/d2 %.5f err %+.4f steps %lld wall %.1f\n", z.phi,
                      r, row["k_over_d2"].get<double>(), row.value("rel_error", 0.0),
@@ -180,9 +186,9 @@ int main(int argc, char** argv) {
         rows.push_back(row);
       }
     out["rows"] = rows;
-    out["settings"] = std::string(
-                          "tau+ 2.0, Lambda 3/16, float32, tolerance 1e-6 per 100 steps, "
-                          "2 threads; walls: ") +
+    out["settings"] = "tau+ " + std::to_string(tau) +
+                      ", Lambda 3/16, float32, tolerance 1e-6 per 100 steps, "
+                      "2 threads; walls: " +
                       (interp ? "Bouzidi linear with the exact sphere distance, d = exact"
                               : "halfway bounce-back, d = digitised-volume diameter");
   } else if (mode == "speed") {
@@ -200,46 +206,54 @@ int main(int argc, char** argv) {
       for (const auto& [name, dom, steps] :
            {std::tuple<const char*, const flow::LbmDomain*, int>{"sc_unit_cell", &cell, 100},
             {"random_spheres", &spheres, 20}}) {
-        for (flow::Precision p : {flow::Precision::Float, flow::Precision::Double}) {
-          flow::LbmOptions o;
-          o.force = 1e-6;
-          o.tolerance = 1e-30;
-          o.maxSteps = steps;
-          o.checkInterval = steps;
-          o.precision = p;
-          o.threads = th;
-          const double c0 = cpuSeconds();
-          const flow::LbmResult r = flow::runLbm(*dom, o);
-          const double cpu = cpuSeconds() - c0;
-          const double pop = p == flow::Precision::Float ? 4 : 8;
-          // Per update: 19 populations read + 19 written (+19 write-allocate reads), 18
-          // 4-byte pull indices, 1 flag byte.
-          const double bytes = 19 * pop * 3 + 18 * 4 + 1;
-          const double bound = bw / bytes / 1e6;
-          rows.push_back({{"lattice", name},
-                          {"threads", th},
-                          {"precision", p == flow::Precision::Float ? "float32" : "float64"},
-                          {"cells", r.fluidCells},
-                          {"steps", r.steps},
-                          {"mlups", r.mlups},
-                          {"cpu_s", cpu},
-                          {"wall_s", r.wallS},
-                          {"copy_gb_s", bw / 1e9},
-                          {"bytes_per_update", bytes},
-                          {"bound_mlups", bound},
-                          {"fraction_of_bound", r.mlups / bound},
-                          {"load", load()}});
-          std::fprintf(stderr,
-                       "%s threads %d %s: %.1f MLUPS, copy %.2f GB/s, bound %.1f (%.0f %%)\n", name,
-                       th, p == flow::Precision::Float ? "float" : "double", r.mlups, bw / 1e9,
-                       bound, 100 * r.mlups / bound);
-        }
+        for (flow::Precision p : {flow::Precision::Float, flow::Precision::Double})
+          for (flow::Streaming st : {flow::Streaming::TwoLattice, flow::Streaming::AA}) {
+            flow::LbmOptions o;
+            o.streaming = st;
+            o.force = 1e-6;
+            o.tolerance = 1e-30;
+            o.maxSteps = steps;
+            o.checkInterval = steps;
+            o.precision = p;
+            o.threads = th;
+            const double c0 = cpuSeconds();
+            const flow::LbmResult r = flow::runLbm(*dom, o);
+            const double cpu = cpuSeconds() - c0;
+            const double pop = p == flow::Precision::Float ? 4 : 8;
+            // Per update, two lattices: 19 populations read + 19 written (+19 write-allocate
+            // reads of the other lattice), 18 4-byte pull indices, 1 flag byte. AA: 19 read and
+            // 19 written back to the lines just read (no write-allocate), the 18 indices on
+            // odd steps only (even steps are local), 1 flag byte.
+            const bool aa = st == flow::Streaming::AA;
+            const double bytes = aa ? 19 * pop * 2 + 18 * 4 / 2.0 + 1 : 19 * pop * 3 + 18 * 4 + 1;
+            const double bound = bw / bytes / 1e6;
+            rows.push_back({{"lattice", name},
+                            {"threads", th},
+                            {"precision", p == flow::Precision::Float ? "float32" : "float64"},
+                            {"streaming", flow::streamingName(r.streaming)},
+                            {"cells", r.fluidCells},
+                            {"steps", r.steps},
+                            {"mlups", r.mlups},
+                            {"cpu_s", cpu},
+                            {"wall_s", r.wallS},
+                            {"copy_gb_s", bw / 1e9},
+                            {"bytes_per_update", bytes},
+                            {"bound_mlups", bound},
+                            {"fraction_of_bound", r.mlups / bound},
+                            {"load", load()}});
+            std::fprintf(
+                stderr, "%s threads %d %s %s: %.1f MLUPS, copy %.2f GB/s, bound %.1f (%.0f %%)\n",
+                name, th, p == flow::Precision::Float ? "float" : "double",
+                flow::streamingName(r.streaming), r.mlups, bw / 1e9, bound, 100 * r.mlups / bound);
+          }
       }
     }
     out["rows"] = rows;
     out["settings"] =
         "copy of 2^28 floats, best of 5, 12 B per element; sc_unit_cell 100 steps, "
-        "random_spheres 20 steps; one run each";
+        "random_spheres 20 steps (even counts: AA's two passes alternate); one run each; "
+        "bytes per update: two lattices 19*3 populations + 72 B index + 1, AA 19*2 populations "
+        "+ 36 B index (odd steps only) + 1";
   } else if (mode == "tau") {
     json rows = json::array();
     for (double tau : {0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 5.0}) {
@@ -304,6 +318,7 @@ int main(int argc, char** argv) {
                   {"cpu_s", cpu},
                   {"mlups", r.mlups},
                   {"threads_used", r.threads},
+                  {"streaming", flow::streamingName(r.streaming)},
                   {"estimated_bytes", flow::estimateLbmBytes(static_cast<std::uint64_t>(n * n * n),
                                                              fluid, flow::Precision::Float)},
                   {"tau", tau},

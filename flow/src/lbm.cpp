@@ -12,6 +12,16 @@
 // reductions are summed per fixed block of cells and then in block order, so the result
 // is bitwise identical for any thread count.
 //
+// AA streaming (Bailey, Myre, Walsh, Lilja & Saar 2009), the default without interpolated
+// walls: one lattice, updated in place. An even step reads a cell's own incoming populations
+// f_q = A[x][q], collides, and writes f*_q to A[x][qbar] (a purely local pass, no index). An
+// odd step reads f_q from L(x, q) = A[x - c_q][qbar] (or A[x][q] behind a wall) and writes
+// f*_qbar back to the same L(x, q); after it A[y][q] holds f*_q(y - c_q), the incoming
+// population of the next even step. Every location is read and written by one cell only in
+// each step, so the pass is race-free, and a cell's collision sees exactly the values the
+// pull scheme gives it: the two schemes produce the same bits. L is the pull index with the
+// slot's direction reversed, so both use 18 indices per cell.
+//
 // Interpolated walls (LbmDomain::signedDistance): Bouzidi, Firdaouss & Lallemand (2001)
 // linear interpolation. A wall link is a (fluid cell, incoming direction) whose pull source
 // is a solid cell; its wall cut q along the link comes from the signed distance. After the
@@ -78,14 +88,17 @@ inline Moments moments(const double* f, const double* force) {
   return m;
 }
 
-// One fused stream (pull) + TRT collision step over cells [begin, end), in batches of
-// kLanes cells: the pull (indirect loads) and the wall links are per cell, the collision
-// runs across the batch's lanes as one SIMD loop, each lane doing exactly the scalar
-// arithmetic in the same order (no FMA: -ffp-contract=off), so the result is the same
-// bits as a cell-by-cell loop, and the reductions are added in cell order.
+// One fused stream + TRT collision step over cells [begin, end), in batches of kLanes cells:
+// the loads (indirect) and the wall links are per cell, the collision runs across the
+// batch's lanes as one SIMD loop, each lane doing exactly the scalar arithmetic in the same
+// order (no FMA: -ffp-contract=off), so the result is the same bits as a cell-by-cell loop,
+// and the reductions are added in cell order. Kind: kPull reads `fin` through the pull index
+// `src` and writes `fout`; kAaEven and kAaOdd update `fout` in place (`fin` == `fout`), the
+// odd step through the AA index L in `src`.
 constexpr int kLanes = 8;
+constexpr int kPull = 0, kAaEven = 1, kAaOdd = 2;
 
-template <class T>
+template <class T, int Kind>
 __attribute__((always_inline)) inline void stepRangeBody(
     const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
     const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
@@ -105,10 +118,16 @@ __attribute__((always_inline)) inline void stepRangeBody(
       }
       const std::uint32_t* from = src + c * (kQ - 1);
       f[0][l] = fin[c * kQ];
-      for (int q = 1; q < kQ; ++q) f[q][l] = fin[from[q - 1]];
-      for (; lk != lkEnd && lk->cell == c; ++lk)
-        f[lk->slot][l] =
-            lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
+      if constexpr (Kind == kAaEven) {
+        for (int q = 1; q < kQ; ++q) f[q][l] = fin[c * kQ + static_cast<std::size_t>(q)];
+      } else {
+        for (int q = 1; q < kQ; ++q) f[q][l] = fin[from[q - 1]];
+      }
+      if constexpr (Kind == kPull) {
+        for (; lk != lkEnd && lk->cell == c; ++lk)
+          f[lk->slot][l] =
+              lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
+      }
       const double* force = inSample[c] ? r.force : kZero3;
       for (int d = 0; d < 3; ++d) F[d][l] = force[d];
     }
@@ -161,7 +180,17 @@ __attribute__((always_inline)) inline void stepRangeBody(
     }
     for (int l = 0; l < nl; ++l) {
       const std::size_t c = c0 + static_cast<std::size_t>(l);
-      for (int q = 0; q < kQ; ++q) fout[c * kQ + q] = static_cast<T>(out[q][l]);
+      if constexpr (Kind == kPull) {
+        for (int q = 0; q < kQ; ++q) fout[c * kQ + q] = static_cast<T>(out[q][l]);
+      } else if constexpr (Kind == kAaEven) {
+        fout[c * kQ] = static_cast<T>(out[0][l]);
+        for (int q = 1; q < kQ; ++q)
+          fout[c * kQ + static_cast<std::size_t>(kOpposite[q])] = static_cast<T>(out[q][l]);
+      } else {
+        const std::uint32_t* to = src + c * (kQ - 1);
+        fout[c * kQ] = static_cast<T>(out[0][l]);
+        for (int q = 1; q < kQ; ++q) fout[to[q - 1]] = static_cast<T>(out[kOpposite[q]][l]);
+      }
       if (sums && inSample[c]) {
         sums->axial += u[axis][l];
         sums->speed += std::sqrt(uuOut[l]);
@@ -172,31 +201,46 @@ __attribute__((always_inline)) inline void stepRangeBody(
 }
 
 // The body compiled twice per precision, for AVX2 and the baseline, picked at load time
-// (GCC and clang take target_clones on plain functions only, not on templates).
-__attribute__((target_clones("avx2", "default"))) void stepRangeFloat(
-    const float* fin, float* fout, const std::uint32_t* src, const std::uint8_t* inSample,
+// (GCC and clang take target_clones on plain functions only, not on templates); `kind`
+// selects the pass inside the clone.
+template <class T>
+__attribute__((always_inline)) inline void stepRangeKind(
+    int kind, const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
     const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
     int axis, BlockSums* sums) {
-  stepRangeBody(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+  if (kind == kAaEven)
+    stepRangeBody<T, kAaEven>(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+  else if (kind == kAaOdd)
+    stepRangeBody<T, kAaOdd>(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+  else
+    stepRangeBody<T, kPull>(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+}
+__attribute__((target_clones("avx2", "default"))) void stepRangeFloat(
+    int kind, const float* fin, float* fout, const std::uint32_t* src, const std::uint8_t* inSample,
+    const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
+    int axis, BlockSums* sums) {
+  stepRangeKind(kind, fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
 }
 __attribute__((target_clones("avx2", "default"))) void stepRangeDouble(
-    const double* fin, double* fout, const std::uint32_t* src, const std::uint8_t* inSample,
-    const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
-    int axis, BlockSums* sums) {
-  stepRangeBody(fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
+    int kind, const double* fin, double* fout, const std::uint32_t* src,
+    const std::uint8_t* inSample, const WallLink* lk, const WallLink* lkEnd, std::size_t begin,
+    std::size_t end, const Rates& r, int axis, BlockSums* sums) {
+  stepRangeKind(kind, fin, fout, src, inSample, lk, lkEnd, begin, end, r, axis, sums);
 }
 
 template <class T>
 class Solver {
  public:
+  // `src` is the pull index for two lattices, the AA index L for AA (see the file comment).
   Solver(std::size_t n, std::vector<std::uint32_t> src, std::vector<std::uint8_t> inSample,
-         std::vector<WallLink> links, const Rates& rates, int axis, int threads)
+         std::vector<WallLink> links, const Rates& rates, int axis, int threads, bool aa)
       : n_(n),
+        aa_(aa),
         src_(std::move(src)),
         inSample_(std::move(inSample)),
         links_(std::move(links)),
         a_(kQ * n, T(0)),
-        b_(kQ * n, T(0)),
+        b_(aa ? 0 : kQ * n, T(0)),
         rates_(rates),
         axis_(axis),
         blocks_((n + kBlock - 1) / kBlock),
@@ -219,8 +263,9 @@ class Solver {
   // One step; when `sums` is given, fills the totals of this step (block order).
   void step(BlockSums* total) {
     std::vector<BlockSums> part(total ? blocks_ : 0);
+    const int kind = !aa_ ? kPull : (odd_ ? kAaOdd : kAaEven);
     const T* fin = a_.data();
-    T* fout = b_.data();
+    T* fout = aa_ ? a_.data() : b_.data();
     const std::int64_t nb = static_cast<std::int64_t>(blocks_);
 #pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
     for (std::int64_t bi = 0; bi < nb; ++bi) {
@@ -228,14 +273,18 @@ class Solver {
       const std::size_t end = std::min(n_, begin + kBlock);
       const WallLink* l0 = links_.data() + linkStart_[static_cast<std::size_t>(bi)];
       const WallLink* l1 = links_.data() + linkStart_[static_cast<std::size_t>(bi) + 1];
+      BlockSums* s = total ? &part[static_cast<std::size_t>(bi)] : nullptr;
       if constexpr (std::is_same_v<T, float>)
-        stepRangeFloat(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
-                       total ? &part[static_cast<std::size_t>(bi)] : nullptr);
+        stepRangeFloat(kind, fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_,
+                       axis_, s);
       else
-        stepRangeDouble(fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_, axis_,
-                        total ? &part[static_cast<std::size_t>(bi)] : nullptr);
+        stepRangeDouble(kind, fin, fout, src_.data(), inSample_.data(), l0, l1, begin, end, rates_,
+                        axis_, s);
     }
-    a_.swap(b_);
+    if (aa_)
+      odd_ = !odd_;
+    else
+      a_.swap(b_);
     if (total) {
       *total = BlockSums{};
       for (const BlockSums& p : part) {
@@ -248,19 +297,30 @@ class Solver {
 
   int threads() const { return threads_; }
 
-  // Incoming populations of cell c (after streaming of the stored post-collision state).
+  // Incoming populations of cell c: the values its next collision reads. Two lattices: the
+  // pull of the stored post-collision state. AA: after an even number of steps the cell's
+  // own slots; after an odd number the post-collision values sit swapped, reached through L.
   void incoming(std::size_t c, double* f) const {
     f[0] = a_[c * kQ];
-    for (int q = 1; q < kQ; ++q) f[q] = a_[src_[c * (kQ - 1) + q - 1]];
-    const std::size_t bi = c / kBlock;
-    for (std::size_t l = linkStart_[bi]; l < linkStart_[bi + 1]; ++l) {
-      const WallLink& lk = links_[l];
-      if (lk.cell == c)
-        f[lk.slot] = lk.a * static_cast<double>(a_[lk.i1]) + lk.b * static_cast<double>(a_[lk.i2]);
+    if (aa_ && !odd_) {
+      for (int q = 1; q < kQ; ++q) f[q] = a_[c * kQ + static_cast<std::size_t>(q)];
+      return;
     }
+    for (int q = 1; q < kQ; ++q) f[q] = a_[src_[c * (kQ - 1) + q - 1]];
+    // The cell's links by binary search in its block (links are sorted by cell): a scan of
+    // the block per cell made mass() and fields() quadratic in the links per block.
+    const std::size_t bi = c / kBlock;
+    const auto first = links_.begin() + static_cast<std::ptrdiff_t>(linkStart_[bi]);
+    const auto last = links_.begin() + static_cast<std::ptrdiff_t>(linkStart_[bi + 1]);
+    auto lk = std::lower_bound(first, last, c,
+                               [](const WallLink& x, std::size_t cell) { return x.cell < cell; });
+    for (; lk != last && lk->cell == c; ++lk)
+      f[lk->slot] =
+          lk->a * static_cast<double>(a_[lk->i1]) + lk->b * static_cast<double>(a_[lk->i2]);
   }
 
-  // Sum of rho over all cells of the stored (post-collision) state: the mass.
+  // Sum of rho over all cells of the incoming state: the mass the next collision sees. Read
+  // through incoming() so that AA and two lattices sum the same values in the same order.
   double mass() const {
     std::vector<double> part(blocks_, 0.0);
     const std::int64_t nb = static_cast<std::int64_t>(blocks_);
@@ -270,8 +330,10 @@ class Solver {
       const std::size_t end = std::min(n_, begin + kBlock);
       double s = 0;
       for (std::size_t c = begin; c < end; ++c) {
+        double f[kQ];
+        incoming(c, f);
         s += 1.0;
-        for (int q = 0; q < kQ; ++q) s += a_[c * kQ + q];
+        for (int q = 0; q < kQ; ++q) s += f[q];
       }
       part[static_cast<std::size_t>(bi)] = s;
     }
@@ -297,6 +359,8 @@ class Solver {
 
  private:
   std::size_t n_;
+  bool aa_;
+  bool odd_ = false;  // AA: the next step is an odd one (the state is swapped in place)
   std::vector<std::uint32_t> src_;
   std::vector<std::uint8_t> inSample_;
   std::vector<WallLink> links_;
@@ -410,6 +474,10 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
   }
   res.interpolatedLinks = links.size();
   std::vector<std::int32_t>().swap(id);
+  res.streaming = resolveStreaming(o.streaming, links.size());
+  const bool aa = res.streaming == Streaming::AA;
+  if (aa)  // L(x, q): the pull source with its direction reversed (file comment)
+    for (std::uint32_t& v : src) v = v - v % kQ + static_cast<std::uint32_t>(kOpposite[v % kQ]);
 
   Rates rates{};
   rates.omegaPlus = 1.0 / o.tauPlus;
@@ -420,7 +488,7 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
   for (std::uint8_t s : inSample) res.sampleFluidCells += s;
 
   Solver<T> solver(n, std::move(src), std::move(inSample), std::move(links), rates, o.axis,
-                   o.threads);
+                   o.threads, aa);
   res.threads = solver.threads();
   res.massInitial = solver.mass();
   const auto t0 = std::chrono::steady_clock::now();
@@ -477,6 +545,25 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
 
 }  // namespace
 
+const char* streamingName(Streaming s) {
+  switch (s) {
+    case Streaming::Auto:
+      return "auto";
+    case Streaming::AA:
+      return "aa";
+    case Streaming::TwoLattice:
+      return "two_lattice";
+  }
+  return "unknown";
+}
+
+Streaming resolveStreaming(Streaming requested, std::uint64_t wallLinks) {
+  if (requested == Streaming::AA && wallLinks > 0)
+    throw InputError("flow: AA streaming does not carry interpolated wall links; use two lattices");
+  if (requested == Streaming::Auto) return wallLinks > 0 ? Streaming::TwoLattice : Streaming::AA;
+  return requested;
+}
+
 const char* statusName(FlowStatus s) {
   switch (s) {
     case FlowStatus::Converged:
@@ -490,12 +577,15 @@ const char* statusName(FlowStatus s) {
 }
 
 std::uint64_t estimateLbmBytes(std::uint64_t boxCells, std::uint64_t fluidCells,
-                               Precision precision, std::uint64_t wallLinks) {
+                               Precision precision, std::uint64_t wallLinks, Streaming streaming) {
   const std::uint64_t pop = precision == Precision::Float ? 4 : 8;
-  // Two lattices of 19 populations, 18 pull indices, sample flag, cell offset, final
-  // fields (4 floats); the id map (4 bytes per box cell) lives during setup only, but
-  // the fields are made after it is freed, so the peak is the larger of the two phases.
-  const std::uint64_t perCell = 2 * kQ * pop + (kQ - 1) * 4 + 1 + 8;
+  // AA unless two lattices are asked for or interpolated links need them (runLbm refuses AA
+  // with links before it estimates).
+  const std::uint64_t lattices = streaming != Streaming::TwoLattice && wallLinks == 0 ? 1 : 2;
+  // One (AA) or two lattices of 19 populations, 18 indices, sample flag, cell offset, final
+  // fields (4 floats); the id map (4 bytes per box cell) lives during setup only, but the
+  // fields are made after it is freed, so the peak is the larger of the two phases.
+  const std::uint64_t perCell = lattices * kQ * pop + (kQ - 1) * 4 + 1 + 8;
   const std::uint64_t setup = checkedProduct({boxCells, 4}, "flow lattice");
   const std::uint64_t fields = checkedProduct({fluidCells, 16}, "flow fields");
   return checkedProduct({fluidCells, perCell}, "flow lattice") + std::max(setup, fields) +
@@ -543,7 +633,9 @@ LbmResult runLbm(const LbmDomain& domain, const LbmOptions& o, const MemoryBudge
       }
     }
   }
-  requireWithinBudget(estimateLbmBytes(box, fluid, o.precision, wallLinks), budget, "flow");
+  resolveStreaming(o.streaming, wallLinks);  // refuse AA with interpolated links up front
+  requireWithinBudget(estimateLbmBytes(box, fluid, o.precision, wallLinks, o.streaming), budget,
+                      "flow");
   LbmOptions opt = o;
   opt.threads = std::max(1, o.threads);
   if (o.precision == Precision::Double) return runTyped<double>(domain, opt, progress);

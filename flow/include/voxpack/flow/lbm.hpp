@@ -28,6 +28,16 @@ enum class Precision {
   Double  ///< float64 populations (the reference the float results are measured against)
 };
 
+/// How the populations stream from one step to the next (docs/flow.md, "AA or two lattices").
+enum class Streaming {
+  Auto,       ///< AA when there is no interpolated wall link, else two lattices
+  AA,         ///< one lattice updated in place (Bailey et al. 2009): half the memory and traffic
+  TwoLattice  ///< pull from one lattice into a second (needed by interpolated walls)
+};
+
+/// Text of a streaming scheme: "auto", "aa", "two_lattice".
+const char* streamingName(Streaming s);
+
 /// The lattice the solver runs on: a box of cells in C order (z, y, x), fluid or solid.
 struct LbmDomain {
   std::array<std::int64_t, 3> dims{0, 0, 0};  ///< (nz, ny, nx) cells
@@ -55,6 +65,8 @@ struct LbmOptions {
   std::int64_t minSteps = 0;         ///< never stop before this many steps
   Precision precision = Precision::Float;  ///< stored population type
   int threads = 1;                         ///< OpenMP threads (results are identical for any count)
+  /// Streaming scheme; AA and two lattices give the same bits (a test checks it).
+  Streaming streaming = Streaming::Auto;
 };
 
 /// Macroscopic fields on the fluid cells, in cell order (see LbmResult::cellOffset).
@@ -76,18 +88,24 @@ struct LbmResult {
   std::size_t fluidCells = 0;         ///< cells updated per step
   std::size_t sampleFluidCells = 0;   ///< fluid cells in the sample
   std::size_t interpolatedLinks = 0;  ///< wall links with interpolated bounce-back
-  int threads = 1;   ///< threads the kernel ran on (<= options; >= 8 blocks of 4096 cells each)
-  double wallS = 0;  ///< wall time of the time loop
-  double mlups = 0;  ///< million fluid-cell updates per second
+  int threads = 1;  ///< threads the kernel ran on (<= options; >= 8 blocks of 4096 cells each)
+  Streaming streaming = Streaming::AA;    ///< the scheme that ran (never Auto)
+  double wallS = 0;                       ///< wall time of the time loop
+  double mlups = 0;                       ///< million fluid-cell updates per second
   std::vector<std::uint64_t> cellOffset;  ///< C-order offset of each fluid cell in the box
   LbmFields fields;                       ///< final density and velocity (cell order)
   std::vector<std::pair<std::int64_t, double>> history;  ///< (step, mean axial velocity)
 };
 
 /// Bytes the solver needs for `boxCells` cells of which `fluidCells` are fluid, with
-/// `wallLinks` interpolated wall links (LbmDomain::signedDistance).
+/// `wallLinks` interpolated wall links (LbmDomain::signedDistance) and `streaming`.
 std::uint64_t estimateLbmBytes(std::uint64_t boxCells, std::uint64_t fluidCells,
-                               Precision precision, std::uint64_t wallLinks = 0);
+                               Precision precision, std::uint64_t wallLinks = 0,
+                               Streaming streaming = Streaming::Auto);
+
+/// The scheme `requested` resolves to for a run with `wallLinks` interpolated links.
+/// Throws InputError for AA with interpolated links.
+Streaming resolveStreaming(Streaming requested, std::uint64_t wallLinks);
 
 /// Runs the solver to convergence or maxSteps. Throws InputError (no fluid cell, bad
 /// options), ResourceError (over `budget`), Cancelled (progress asked to stop).
