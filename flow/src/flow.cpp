@@ -428,7 +428,8 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
                   {"check_interval", lo.checkInterval},
                   {"tolerance", lo.tolerance},
                   {"max_steps", lo.maxSteps},
-                  {"precision", lo.precision == Precision::Float ? "float32" : "float64"}};
+                  {"precision", lo.precision == Precision::Float ? "float32" : "float64"},
+                  {"streaming", streamingName(r.streaming)}};
   nlohmann::json hist = nlohmann::json::array();
   for (const auto& [s, u] : r.history) hist.push_back({s, u});
   j["convergence_history"] = hist;

@@ -45,6 +45,7 @@ TEST(FlowCli, WritesEveryKey) {
         "specific_surface_mm_inv", "pressure_gradient"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["status"], "converged");
+  EXPECT_EQ(j["lattice"]["streaming"], "aa");  // halfway walls: one lattice, in place
   EXPECT_GT(j["permeability_mm2"].get<double>(), 0.0);
   EXPECT_NEAR(j["permeability_darcy"].get<double>() * 9.869233e-7,
               j["permeability_mm2"].get<double>(), 1e-9 * j["permeability_mm2"].get<double>());
