@@ -287,8 +287,9 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
     // Interpolated walls: the signed distance (a float per box cell); the wall links are
     // counted on the lattice once it is built (below).
     const std::uint64_t distance = interpolated ? detail::kDistanceBytesPerCell * box : 0;
-    requireWithinBudget(2 * box + distance + estimateLbmBytes(box, fluid, o.lbm.precision), budget,
-                        "flow (lattice Boltzmann)");
+    requireWithinBudget(
+        2 * box + distance + estimateLbmBytes(box, fluid, o.lbm.precision, 0, o.lbm.streaming),
+        budget, "flow (lattice Boltzmann)");
   }
   // Blocked: no path across the sample, reported at once (nothing to run).
   if (!percolates(sampleDomain(bed, o), o.axis)) {
