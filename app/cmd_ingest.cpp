@@ -87,6 +87,15 @@ class IngestCommand final : public Command {
                    "curvature (anisotropic diffusion) or none")
         ->check(CLI::IsMember({"none", "median", "median-box", "curvature"}))
         ->capture_default_str();
+    sub.add_option("--median-min-voxels-per-d", o_.medianMinVoxelsPerD,
+                   "median: below this many voxels per particle diameter (measured on a "
+                   "preliminary segmentation) the volume threshold cuts the raw image, because "
+                   "the median closes thin void throats (0 = always the median)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    sub.add_flag("!--no-wall-blur-correction", o_.wallBlurCorrection,
+                 "volume threshold: keep the grey values next to the column wall as imaged "
+                 "(default: divide the wall's fitted blur profile out of them)");
     sub.add_option("--median-radius", o_.medianRadiusVoxels,
                    "median-box half-width in voxels (1..5)")
         ->check(CLI::Range(1, 5))

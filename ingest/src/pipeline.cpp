@@ -437,6 +437,8 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                               : o.noise == NoiseChoice::Rician ? "rician"
                                                                : "gaussian"},
                     {"refine_column", o.refineColumn},
+                    {"wall_blur_correction", o.wallBlurCorrection},
+                    {"median_min_voxels_per_d", o.medianMinVoxelsPerD},
                     {"max_speck_voxels", o.maxSpeckVoxels},
                     {"max_hole_voxels", o.maxHoleVoxels},
                     {"column", name(o.column)},

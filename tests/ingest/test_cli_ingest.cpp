@@ -103,6 +103,41 @@ TEST(CliIngest, PhantomThenIngestEndToEnd) {
   EXPECT_EQ(prov["ingest"]["input"], (dir / "ph.nrrd").string());
 }
 
+// The two switches of the volume threshold reach the pipeline and its provenance: the
+// wall-blur correction off, and the median skipped below a coarseness the bed is under.
+TEST(CliIngest, WallBlurAndMedianSwitches) {
+  TempDir dir;
+  const Bed truth = makeSphereBed(64, 28.0, 6.0, 0.25, 9);
+  writeBed(dir / "bed.h5", truth);
+  CliResult r = runVoxpack({"-q", "phantom", (dir / "bed.h5").string(), "--modality", "mri",
+                            "--snr", "10", "--blur-mm", "0.25", "--seed", "3", "-o",
+                            (dir / "ph.nrrd").string(), "--pixel-type", "uint16"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto ingest = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"ingest", (dir / "ph.nrrd").string(), "-o",
+                                  (dir / "seg.h5").string(), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const CliResult res = runVoxpack(args);
+    EXPECT_EQ(res.exitCode, 0) << res.err;
+    return nlohmann::json::parse(res.out);
+  };
+  const auto base = ingest({});
+  ASSERT_EQ(base["threshold"]["method"], "volume");
+  EXPECT_TRUE(base["options"]["wall_blur_correction"].get<bool>());
+  EXPECT_TRUE(base["wall_blur_correction"]["applied"].get<bool>());
+  const auto off = ingest({"--no-wall-blur-correction", "--median-min-voxels-per-d", "1000"});
+  EXPECT_FALSE(off["options"]["wall_blur_correction"].get<bool>());
+  EXPECT_FALSE(off["wall_blur_correction"]["applied"].get<bool>());
+  EXPECT_DOUBLE_EQ(off["options"]["median_min_voxels_per_d"].get<double>(), 1000.0);
+  EXPECT_NE(off["options"]["denoise_note"].get<std::string>().find("median not used"),
+            std::string::npos);
+  EXPECT_NE(off["porosity"].get<double>(), base["porosity"].get<double>());
+  const CliResult bad = runVoxpack({"-q", "ingest", (dir / "ph.nrrd").string(), "-o",
+                                    (dir / "bad.h5").string(), "--median-min-voxels-per-d", "-1"});
+  EXPECT_EQ(bad.exitCode, 2) << bad.err;
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.h5"));
+}
+
 TEST(CliIngest, ResampleAndExplicitColumn) {
   TempDir dir;
   const Grid<float> img = slabVolume(0.3);
