@@ -53,11 +53,20 @@ class CompareCommand final : public Command {
     sub.add_flag("--flow", flow_,
                  "also run the flow solver on every bed (packed region): permeability, "
                  "tortuosity and wall-flow share against the reference, radial velocity figure");
-    sub.add_option("--flow-tolerance", flowTolerance_,
-                   "flow: stop when the mean velocity changes by less than this per check")
-        ->capture_default_str();
-    sub.add_option("--flow-max-steps", flowMaxSteps_, "flow: stop after this many time steps")
-        ->capture_default_str();
+    flowOpts_[0] =
+        sub.add_option("--flow-tolerance", flowTolerance_,
+                       "flow: stop when the mean velocity changes by less than this per check")
+            ->capture_default_str();
+    flowOpts_[1] =
+        sub.add_option("--flow-max-steps", flowMaxSteps_, "flow: stop after this many time steps")
+            ->capture_default_str();
+    flowOpts_[2] =
+        sub.add_option(
+               "--flow-walls", flowWalls_,
+               "flow: halfway (bounce-back on the voxels) or interpolated (links cut at the "
+               "exact surfaces of each bed's particle table and container)")
+            ->check(CLI::IsMember({"halfway", "interpolated"}))
+            ->capture_default_str();
   }
 
   int execute(const GlobalOptions& global) override {
@@ -99,6 +108,8 @@ class CompareCommand final : public Command {
     opt.radialGrid.gridStepMm = radialStepMm_;
     opt.bedRegionFraction = bedFraction_;
     opt.s2Grid.gridStepMm = s2StepMm_;
+    for (const CLI::Option* fo : flowOpts_)
+      if (!flow_ && fo->count() > 0) throw UsageError(fo->get_name() + " needs --flow");
     if (flow_) {
       if (!(flowTolerance_ > 0)) throw UsageError("--flow-tolerance must be positive");
       if (flowMaxSteps_ < 1) throw UsageError("--flow-max-steps must be at least 1");
@@ -106,6 +117,8 @@ class CompareCommand final : public Command {
       opt.flow.solver.lbm.tolerance = flowTolerance_;
       opt.flow.solver.lbm.maxSteps = flowMaxSteps_;
       opt.flow.solver.lbm.threads = opt.stats.threads;
+      opt.flow.solver.walls =
+          flowWalls_ == "interpolated" ? flow::Walls::Interpolated : flow::Walls::Halfway;
       opt.flow.memory = global.memory;
     }
     std::vector<fs::path> cands(candidates_.begin(), candidates_.end());
@@ -134,7 +147,8 @@ class CompareCommand final : public Command {
                           {"figures", !noFigures_},
                           {"flow", flow_},
                           {"flow_tolerance", flowTolerance_},
-                          {"flow_max_steps", flowMaxSteps_}}},
+                          {"flow_max_steps", flowMaxSteps_},
+                          {"flow_walls", flowWalls_}}},
                         {"methods",
                          {{"density",
                            "mean/std of slice packing densities (stats axial block); rel diff = "
@@ -179,6 +193,8 @@ class CompareCommand final : public Command {
   bool flow_ = false;
   double flowTolerance_ = 1e-5;
   std::int64_t flowMaxSteps_ = 200000;
+  std::string flowWalls_ = "halfway";
+  CLI::Option* flowOpts_[3] = {nullptr, nullptr, nullptr};
   std::string python_;
   std::string figureScript_;
 };

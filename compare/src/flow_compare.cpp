@@ -55,7 +55,8 @@ nlohmann::json flowRecord(const Bed& bed, const CompareFlowOptions& options, Pro
   for (const char* key :
        {"status", "converged", "steps", "residual", "porosity", "permeability_mm2",
         "permeability_darcy", "permeability_over_d2", "tortuosity_hydraulic", "wall_flow_share",
-        "wall_area_share", "particle_diameter_mm", "boundary", "mlups", "wall_s"})
+        "wall_area_share", "particle_diameter_mm", "boundary", "walls", "warnings", "mlups",
+        "wall_s"})
     r[key] = j.contains(key) ? j[key] : nlohmann::json(nullptr);
   r["radial_profile"] = nullptr;
   if (j.contains("radial_profile") && j["radial_profile"].is_object())

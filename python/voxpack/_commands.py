@@ -358,8 +358,10 @@ def compare(reference, candidates, out_dir: Optional[PathLike] = None, *,
             particle_diameter_mm: Optional[float] = None, trim_mm: Optional[float] = None,
             s2_max_lag_mm: Optional[float] = None, radial_step_mm: Optional[float] = None,
             s2_step_mm: Optional[float] = None, bed_fraction: Optional[float] = None,
-            figures: bool = True, threads: Optional[int] = None,
-            memory_limit: Optional[str] = None, progress: Optional[Callable] = None) -> dict:
+            figures: bool = True, flow: bool = False, flow_tolerance: Optional[float] = None,
+            flow_max_steps: Optional[int] = None, flow_walls: Optional[str] = None,
+            threads: Optional[int] = None, memory_limit: Optional[str] = None,
+            progress: Optional[Callable] = None) -> dict:
     """Compares candidate beds with a reference bed (`voxpack compare`).
 
     Parameters
@@ -384,6 +386,14 @@ def compare(reference, candidates, out_dir: Optional[PathLike] = None, *,
         Packed region: slices denser than this fraction of the densest (default 0.5).
     figures : bool
         Draw the report figures (matplotlib); False = numbers and CSV only.
+    flow : bool
+        Also run the flow solver on every bed's packed region (`--flow`): permeability,
+        tortuosity and wall-flow share against the reference (summary "flow").
+    flow_tolerance, flow_max_steps : float, int
+        The flow solver's stopping rule (defaults 1e-5 and 200000).
+    flow_walls : "halfway" | "interpolated"
+        Walls of the flow solver (default halfway; interpolated cuts the links at the exact
+        surfaces of each bed's particle table and container).
     threads, memory_limit, progress : as in pack().
 
     Returns the summary dict (DIR/summary.json): reference, candidates with density_mean,
@@ -397,7 +407,12 @@ def compare(reference, candidates, out_dir: Optional[PathLike] = None, *,
         items = [(None, c) for c in candidates]
     opts = {"particle_diameter": particle_diameter_mm, "trim_mm": trim_mm,
             "s2_max_lag_mm": s2_max_lag_mm, "radial_step_mm": radial_step_mm,
-            "s2_step_mm": s2_step_mm, "bed_fraction": bed_fraction, "no_figures": not figures}
+            "s2_step_mm": s2_step_mm, "bed_fraction": bed_fraction, "no_figures": not figures,
+            "flow": bool(flow), "flow_tolerance": flow_tolerance,
+            "flow_max_steps": flow_max_steps, "flow_walls": flow_walls}
+    if not flow and (flow_tolerance is not None or flow_max_steps is not None
+                     or flow_walls is not None):
+        raise ValueError("flow_tolerance, flow_max_steps and flow_walls need flow=True")
     with scratch() as tmp:
         beds = os.path.join(tmp, "beds")
         os.mkdir(beds)

@@ -33,7 +33,8 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
          tau: Optional[float] = None, double: bool = False, field: Optional[PathLike] = None,
          csv_dir: Optional[PathLike] = None, roi_mm=None, velocity_mm_s: Optional[float] = None,
          viscosity_pa_s: Optional[float] = None, density_kg_m3: Optional[float] = None,
-         particle_diameter_mm: Optional[float] = None, threads: Optional[int] = None,
+         particle_diameter_mm: Optional[float] = None, walls: Optional[str] = None,
+         threads: Optional[int] = None,
          memory_limit: Optional[str] = None, progress: Optional[Callable] = None) -> dict:
     """Permeability, tortuosity and pressure drop by lattice Boltzmann (`voxpack flow`).
 
@@ -83,6 +84,9 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
     particle_diameter_mm : float
         d for the correlations, mm (default: the spheres' d from the particle table, else
         the Sauter diameter 6(1-eps)/S_v).
+    walls : "halfway" | "interpolated"
+        halfway (default): bounce-back on the voxels; interpolated: links cut at the exact
+        surfaces of the particle table and the container (keep tau <= 1).
     threads, memory_limit, progress : as in pack(). Ctrl-C (KeyboardInterrupt) stops the
         run; nothing is returned and no file is left.
 
@@ -94,12 +98,15 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
     """
     if axis not in ("z", "y", "x"):
         raise ValueError(f"axis: expected 'z', 'y' or 'x', got {axis!r}")
+    if walls not in (None, "halfway", "interpolated"):
+        raise ValueError(f"walls: expected 'halfway' or 'interpolated', got {walls!r}")
     opts = {"axis": axis, "periodic": bool(periodic), "mirror": bool(mirror),
             "reservoir_layers": reservoir_layers, "tolerance": tolerance,
             "max_steps": max_steps, "check_interval": check_interval, "tau": tau,
             "double": bool(double), "field": field, "csv": csv_dir, "roi_mm": _roi_text(roi_mm),
             "velocity_mm_s": velocity_mm_s, "viscosity_pa_s": viscosity_pa_s,
-            "density_kg_m3": density_kg_m3, "particle_diameter_mm": particle_diameter_mm}
+            "density_kg_m3": density_kg_m3, "particle_diameter_mm": particle_diameter_mm,
+            "walls": walls}
     with scratch() as tmp:
         if _is_path(bed):
             src, given = os.fspath(bed), os.fspath(bed)

@@ -118,6 +118,20 @@ TEST(CliCompareFlow, WithoutFlowNoFlowBlockAndBadOptionsAreRefused) {
     r = runVoxpack(args);
     EXPECT_EQ(r.exitCode, 2) << bad[0] << " " << r.err;
   }
+  // The flow options need --flow; the walls are one of two.
+  for (const std::vector<std::string>& bad :
+       {std::vector<std::string>{"--flow-walls", "interpolated"}, {"--flow-max-steps", "10"}}) {
+    std::vector<std::string> args = {
+        "--quiet",    "compare", "--reference",           ref.string(),
+        ref.string(), "-o",      (tmp / "bad2").string(), "--no-figures"};
+    args.insert(args.end(), bad.begin(), bad.end());
+    r = runVoxpack(args);
+    EXPECT_EQ(r.exitCode, 2) << bad[0] << " " << r.err;
+    EXPECT_NE(r.err.find("needs --flow"), std::string::npos) << r.err;
+  }
+  r = runVoxpack({"--quiet", "compare", "--reference", ref.string(), ref.string(), "-o",
+                  (tmp / "bad3").string(), "--no-figures", "--flow", "--flow-walls", "exact"});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
   // A cap too small to converge: the numbers come out with a warning in the summary.
   r = runVoxpack({"--quiet", "compare", "--reference", ref.string(), ref.string(), "-o",
                   (tmp / "capped").string(), "--no-figures", "--flow", "--flow-max-steps", "20"});
@@ -128,4 +142,27 @@ TEST(CliCompareFlow, WithoutFlowNoFlowBlockAndBadOptionsAreRefused) {
   for (const auto& w : s["warnings"])
     warned = warned || w.get<std::string>().find("not_converged") != std::string::npos;
   EXPECT_TRUE(warned) << s["warnings"].dump();
+}
+
+// --flow-walls interpolated reaches each bed's solver: the record says which walls ran, and
+// the exact sphere and column surfaces give a different permeability from the staircase.
+TEST(CliCompareFlow, InterpolatedWallsReachTheSolver) {
+  TempDir tmp;
+  const auto ref = writeBedFile(tmp, "ref.h5", 1, 400);
+  json k;
+  for (const std::string walls : {"halfway", "interpolated"}) {
+    const auto out = tmp / walls;
+    const CliResult r = runVoxpack({"--quiet", "compare", "--reference", ref.string(), ref.string(),
+                                    "-o", out.string(), "--no-figures", "--flow",
+                                    "--flow-tolerance", "1e-4", "--flow-walls", walls});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const json s = readJsonFile(out / "summary.json");
+    EXPECT_EQ(s["options"]["flow_walls"], walls);
+    EXPECT_EQ(s["flow"]["reference"]["walls"], walls);
+    EXPECT_EQ(s["flow"]["reference"]["status"], "converged");
+    k[walls] = s["flow"]["reference"]["permeability_mm2"];
+  }
+  const double ratio = k["interpolated"].get<double>() / k["halfway"].get<double>();
+  EXPECT_GT(std::abs(ratio - 1.0), 1e-3) << k.dump();
+  EXPECT_LT(std::abs(ratio - 1.0), 0.5) << k.dump();
 }

@@ -197,3 +197,17 @@ def test_help_lists_the_options_with_units():
                  "contact_size", "contact_tolerance_mm", "tolerance_mm", "wall", "surface",
                  "smoothing_voxels", "voxels", "link", "mm"):
         assert word in export_doc, word
+
+
+def test_flow_walls_equal_cli(cli, small_bed_file, tmp_path):
+    cli("--threads", "1", "flow", small_bed_file, "-o", tmp_path / "cli.json", "--walls",
+        "interpolated", *FLOW_FLAGS)
+    ref = json.loads((tmp_path / "cli.json").read_text())
+    got = voxpack.flow(small_bed_file, walls="interpolated", tolerance=1e-4, check_interval=50,
+                       threads=1)
+    assert ref["walls"] == "interpolated"
+    for d in (got, ref):  # the distance's own timing is a run record too
+        assert d["wall_geometry"].pop("distance_s") >= 0
+    assert_same(without_run_records(got), without_run_records(ref))
+    with pytest.raises(ValueError, match="walls"):
+        voxpack.flow(small_bed_file, walls="exact")

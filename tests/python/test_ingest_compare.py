@@ -68,3 +68,18 @@ def test_compare_equals_cli(cli, tmp_path, small_bed_file):
                            particle_diameter_mm=3.2, bed_fraction=0)
     assert (tmp_path / "kept" / "summary.json").exists() and (tmp_path / "kept" / "index.html").exists()
     assert kept["candidates"][0]["s2_rmse"] == ref["candidates"][0]["s2_rmse"]
+
+
+def test_compare_flow_with_interpolated_walls_equals_cli(cli, tmp_path, small_bed_file):
+    cli("--threads", "1", "compare", "--reference", small_bed_file, small_bed_file, "-o",
+        tmp_path / "cli", "--no-figures", "--bed-fraction", 0, "--flow", "--flow-tolerance",
+        "1e-4", "--flow-walls", "interpolated")
+    ref = json.loads((tmp_path / "cli" / "summary.json").read_text())
+    got = voxpack.compare(small_bed_file, [small_bed_file], figures=False, bed_fraction=0,
+                          flow=True, flow_tolerance=1e-4, flow_walls="interpolated", threads=1)
+    assert ref["options"]["flow_walls"] == got["options"]["flow_walls"] == "interpolated"
+    for key in ("walls", "status", "permeability_mm2", "tortuosity_hydraulic", "wall_flow_share"):
+        assert got["flow"]["reference"][key] == ref["flow"]["reference"][key], key
+    assert got["flow"]["reference"]["walls"] == "interpolated"
+    with pytest.raises(ValueError, match="need flow=True"):
+        voxpack.compare(small_bed_file, [small_bed_file], figures=False, flow_walls="halfway")
