@@ -1,5 +1,8 @@
 // One force evaluation: contacts of all pairs and walls (parallel, one slot each), then each
-// particle sums its own contacts in pair order, so the bits do not depend on the threads.
+// particle sums its own contacts in pair order, so the bits do not depend on the threads,
+// and (within a step) takes its closing half kick.
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,7 +10,7 @@
 
 namespace voxpack::packer::dem {
 
-void DemSystem::Impl::computeForces() {
+void DemSystem::Impl::computeForces(double kick) {
   const std::size_t n = x.size();
   const std::int64_t sn = static_cast<std::int64_t>(n);
   double vw = 0;
@@ -16,62 +19,67 @@ void DemSystem::Impl::computeForces() {
   const int particleThreads = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
   rot.resize(n);
   omegaW.resize(n);
-#pragma omp parallel for num_threads(particleThreads) schedule(static)
-  for (std::int64_t si = 0; si < sn; ++si) {
-    const auto i = static_cast<std::size_t>(si);
-    // A sleeping particle keeps its pose and has no spin (sleepUpdate zeroed both rates),
-    // so its rotation and rate stay as they were when it fell asleep (particles are added
-    // awake, and a restored state fills both for all).
-    if (!awake[i]) continue;
-    rot[i] = q[i].toRotationMatrix();
-    omegaW[i] = worldRate(rot[i], L[i], tmpl[tid[i]].inertiaG);
-  }
   std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
+  std::uint64_t wallEvals = 0, wallSearches = 0;
   const std::int64_t np = static_cast<std::int64_t>(pairs.size());
   // Small systems run serial: a parallel region costs more than it saves there, and far
-  // more on an oversubscribed machine.
-  const int pairThreads = threadsFor(static_cast<double>(np), static_cast<double>(np) * meanWork);
-#pragma omp parallel num_threads(pairThreads) reduction(+ : evalsTotal, evaluated, searches)
+  // more on an oversubscribed machine. Poses, pairs and walls share one region.
+  const int forceThreads =
+      std::max(threadsFor(static_cast<double>(np), static_cast<double>(np) * meanWork),
+               threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * meanWork));
+  if (scratch.size() < static_cast<std::size_t>(forceThreads))
+    scratch.resize(static_cast<std::size_t>(forceThreads));
+#pragma omp parallel num_threads(forceThreads) \
+    reduction(+ : evalsTotal, evaluated, searches, wallEvals, wallSearches)
   {
-    std::vector<Hit> hits;
-#pragma omp for schedule(dynamic, 32)
+    Scratch& sc = scratch[static_cast<std::size_t>(omp_get_thread_num())];
+#pragma omp for schedule(static)
+    for (std::int64_t si = 0; si < sn; ++si) {
+      const auto i = static_cast<std::size_t>(si);
+      // A sleeping particle keeps its pose and has no spin (sleepUpdate zeroed both rates),
+      // so its rotation and rate stay as they were when it fell asleep (particles are added
+      // awake, and a restored state fills both for all).
+      if (!awake[i]) continue;
+      rot[i] = q[i].toRotationMatrix();
+      omegaW[i] = worldRate(rot[i], L[i], tmpl[tid[i]].inertiaG);
+    }
+    // (implicit barrier: the contacts read every pose)
+#pragma omp for schedule(dynamic, 32) nowait
     for (std::int64_t pi = 0; pi < np; ++pi) {
       Pair& p = pairs[static_cast<std::size_t>(pi)];
       PairOut& po = pairOut[static_cast<std::size_t>(pi)];
-      po.evaluated = false;  // the contact is read only when evaluated
-      if (!awake[p.i] && !awake[p.j]) continue;
+      po.evaluated = false;                      // the contact is read only when evaluated
+      if (!awake[p.i] && !awake[p.j]) continue;  // two sleepers keep their spring
       const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
-      if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) continue;
+      if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) {
+        p.xi.setZero();  // separated pairs lose their spring
+        continue;
+      }
       ++evaluated;
       po.evaluated = true;
       if (closedForm[tid[p.i]] && closedForm[tid[p.j]]) {
         po.c = spherePair(p);
-        continue;
+      } else {
+        sc.pair.clear();
+        std::uint64_t evals = 0;
+        // Both surfaces probe each other at half stiffness: symmetric, and a flat contact
+        // of area A and overlap delta carries k A delta as against a wall.
+        pairHits(p, sc.pair, evals, searches);
+        evalsTotal += evals;
+        po.c = nodeContact(sc.pair, body(p.i), body(p.j), pairLaw, p.xi);
       }
-      hits.clear();
-      std::uint64_t evals = 0;
-      // Both surfaces probe each other at half stiffness: symmetric, and a flat contact
-      // of area A and overlap delta carries k A delta as against a wall.
-      pairHits(p, hits, evals, searches);
-      evalsTotal += evals;
-      po.c = nodeContact(hits, body(p.i), body(p.j), pairLaw, p.xi);
+      p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
     }
-  }
-  std::uint64_t wallEvals = 0, wallSearches = 0;
-  const int wallThreads = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * meanWork);
-#pragma omp parallel num_threads(wallThreads) reduction(+ : wallEvals, wallSearches)
-  {
-    std::vector<Hit> hits[kWallRegions];
 #pragma omp for schedule(dynamic, 16)
     for (std::int64_t si = 0; si < sn; ++si)
-      wallForces(static_cast<std::size_t>(si), zw, vw, hits, wallEvals, wallSearches);
+      wallForces(static_cast<std::size_t>(si), zw, vw, sc.wall, wallEvals, wallSearches);
   }
   counters.nodeEvaluations += evalsTotal + wallEvals;
   counters.nodeListRebuilds += searches + wallSearches;
   counters.pairChecks += pairs.size();
   counters.pairEvaluations += evaluated;
 
-  // Springs and diagnostics in pair order (cheap, serial).
+  // Diagnostics in pair order (cheap, serial).
   elastic = 0;
   maxDepth = 0;
   sumDepth = 0;
@@ -79,15 +87,8 @@ void DemSystem::Impl::computeForces() {
   interpenetrations = 0;
   maxWallFraction = 0;
   for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
-    Pair& p = pairs[pi];
     const PairOut& po = pairOut[pi];
-    if (!po.evaluated) {
-      // A pair of sleeping particles keeps its spring; separated pairs lose it.
-      if (awake[p.i] || awake[p.j]) p.xi.setZero();
-      continue;
-    }
-    p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
-    if (!po.c.touching) continue;
+    if (!po.evaluated || !po.c.touching) continue;
     elastic += po.c.elastic;
     maxDepth = std::max(maxDepth, po.c.maxDepth);
     sumDepth += po.c.maxDepth;
@@ -99,7 +100,7 @@ void DemSystem::Impl::computeForces() {
     elastic += wallElastic[i];
     maxDepth = std::max(maxDepth, wallDepth[i]);
   }
-  // Each particle: gravity, its pair contacts in pair order, then its walls.
+  // Each particle: gravity, its pair contacts in pair order, then its walls; then the kick.
 #pragma omp parallel for num_threads(particleThreads) schedule(static)
   for (std::int64_t si = 0; si < sn; ++si) {
     const auto i = static_cast<std::size_t>(si);
@@ -119,6 +120,10 @@ void DemSystem::Impl::computeForces() {
     }
     F[i] = f + wallF[i];
     T[i] = tq + wallT[i];
+    if (kick > 0 && awake[i]) {
+      v[i] += (kick / tmpl[tid[i]].massG) * F[i];
+      L[i] += kick * T[i];
+    }
   }
   forcesValid = true;
 }

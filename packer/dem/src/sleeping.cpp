@@ -19,17 +19,17 @@ void DemSystem::Impl::restartWindow(std::size_t i) {
   qRest[i] = q[i];
 }
 
-void DemSystem::Impl::sleepUpdate() {
+std::size_t DemSystem::Impl::sleepUpdate() {
   const std::size_t n = x.size();
   const std::int64_t sn = static_cast<std::int64_t>(n);
-  if (!opt.sleeping) return;  // everyone stays awake; rest windows are never read
+  if (!opt.sleeping) return n;  // everyone stays awake; rest windows are never read
   // Sleeping is allowed in the rests between taps (every lift wakes all again).
   if (wallLiftingAt(t)) {
     for (std::size_t i = 0; i < n; ++i) {
       awake[i] = 1;
       restartWindow(i);
     }
-    return;
+    return n;
   }
   const double vSleep = opt.settleVelocity * std::sqrt(opt.gravityMmPerS2 * dMin());
   const double vWake = 10 * vSleep;
@@ -79,8 +79,12 @@ void DemSystem::Impl::sleepUpdate() {
       }
     }
   }
-  for (std::size_t i = 0; i < n; ++i)
+  std::size_t integrated = 0;
+  for (std::size_t i = 0; i < n; ++i) {
     if (awake[i] == 2) awake[i] = 1;
+    integrated += awake[i];
+  }
+  return integrated;
 }
 
 }  // namespace voxpack::packer::dem

@@ -282,7 +282,7 @@ void DemSystem::measureAllContacts() {
   const std::vector<std::uint8_t> keep = s.awake;
   std::fill(s.awake.begin(), s.awake.end(), 1);
   if (s.needRebuild) s.rebuildNeighbours();
-  s.computeForces();
+  s.computeForces(0);
   s.awake = keep;
 }
 void DemSystem::wakeAll() {

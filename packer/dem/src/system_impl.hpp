@@ -230,16 +230,20 @@ struct DemSystem::Impl {
   // walls.cpp
   void wallForces(std::size_t i, double zw, double vw, std::vector<Hit> (&hits)[kWallRegions],
                   std::uint64_t& evals, std::uint64_t& searches);
-  // forces.cpp
-  void computeForces();
+  // forces.cpp: the forces, then (kick > 0) v += kick F / m and L += kick T of the awake.
+  void computeForces(double kick);
+  // Scratch hit lists of each thread of the force loop (kept between steps).
+  struct Scratch {
+    std::vector<Hit> pair;
+    std::vector<Hit> wall[kWallRegions];
+  };
+  std::vector<Scratch> scratch;
   // integration.cpp
-  void kick(double h);
-  void drift();
-  void checkFinite();
+  double kickDrift(double h);
   void stepOnce();
-  // sleeping.cpp
+  // sleeping.cpp: returns the number of particles awake after the update.
   void restartWindow(std::size_t i);
-  void sleepUpdate();
+  std::size_t sleepUpdate();
 };
 
 }  // namespace voxpack::packer::dem
