@@ -27,7 +27,7 @@ for t in $order; do
   "$build/bin/dem_bed_digest" "$out/t$t.h5" >"$out/t$t.digest.json"
   "$vox" info --json "$out/t$t.h5" >"$out/t$t.info.json"
 done
-/usr/bin/python3 - "$out" "$seed" "$maxt" "$order" "$*" <<'PY'
+/usr/bin/python3 - "$out" "$seed" "$maxt" "$order" "$(printf '%q ' "$@")" <<'PY'
 import json, re, sys
 out, seed, maxt, order, args = sys.argv[1], int(sys.argv[2]), float(sys.argv[3]), sys.argv[4].split(), sys.argv[5]
 def tv(path):
@@ -38,7 +38,7 @@ def tv(path):
             "user_s": float(get("User time (seconds)")), "sys_s": float(get("System time (seconds)")),
             "max_rss_kb": int(get("Maximum resident set size (kbytes)"))}
 res = {"what": "paper bed (samples/paper_dem.toml, one cloud, peer's settle rule), 1 vs 2 threads back to back",
-       "command": "bench/dem/threads_compare.sh " + args, "seed": seed, "max_time_s": maxt, "order": order, "runs": {}}
+       "command": "bench/dem/threads_compare.sh " + args.strip(), "seed": seed, "max_time_s": maxt, "order": order, "runs": {}}
 for t in order:
     r = tv(f"{out}/t{t}.time")
     r["cpu_s"] = r["user_s"] + r["sys_s"]
