@@ -7,16 +7,16 @@
 
 namespace voxpack::packer::dem {
 
-// A penetrating node ni of a (position pb in b's shape frame) as a hit on a; rbS maps b's
-// shape frame to the world.
+// A penetrating node ni of a (b's outward normal nShape there, in b's shape frame) as a hit
+// on a; rbS maps b's shape frame to the world.
 Hit DemSystem::Impl::nodeHit(const ParticleTemplate& ta, const ParticleTemplate& tb,
-                             std::uint32_t ni, const Vec3& pb, double s, const Vec3& xa,
+                             std::uint32_t ni, const Vec3& nShape, double s, const Vec3& xa,
                              const Eigen::Matrix3d& ra, const Eigen::Matrix3d& rbS, double factor,
                              double sign) const {
   Hit h;
   h.p = xa + ra * ta.nodeP[ni];
   h.depth = -s;
-  const Vec3 nb = rbS * tb.shape->normal(pb);  // b's outward normal at the node
+  const Vec3 nb = rbS * nShape;  // b's outward normal at the node
   if (opt.contact == ContactModel::kVoxel) {
     h.dir = -(ra * ta.nodeFace[ni]);
     h.kw = k * ta.nodeArea[ni] * factor;
@@ -67,7 +67,7 @@ void DemSystem::Impl::searchNodes(std::size_t a, std::size_t b, const Eigen::Mat
         if (s >= nodeSkin) continue;
         list.push_back(ni);
         if (s >= 0) continue;
-        const Hit h = nodeHit(ta, tb, ni, pb, s, x[a], ra, rbS, factor, sign);
+        const Hit h = nodeHit(ta, tb, ni, tb.shape->normal(pb), s, x[a], ra, rbS, factor, sign);
         if (h.kw > 0) hits.push_back(h);
       }
     }
@@ -83,11 +83,32 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
   const ParticleTemplate& ta = tmpl[tid[a]];
   const ParticleTemplate& tb = tmpl[tid[b]];
   evals += list.size();
+  const Analytic& form = analytic[tid[b]];
+  if (form.form == 2) {
+    // A cylinder (most listed nodes lie outside it): a node is inside only when both its
+    // axial and its radial distance are negative, and there the signed distance is the
+    // larger of the two, the bits of analyticSignedDistanceMm (sqrt(0) + max(dr, dz)).
+    // The axial test first: no square root.
+    for (const std::uint32_t ni : list) {
+      const Vec3 pb = m * ta.nodeP[ni] + off;
+      const double dz = std::abs(pb.z()) - form.hl;
+      if (dz >= 0) continue;
+      const double rho = std::sqrt(pb.x() * pb.x() + pb.y() * pb.y());
+      const double dr = rho - form.r;
+      if (dr >= 0) continue;
+      // The shape's normal inside (FastSdfShape::normal, its bits): the nearer face.
+      const Vec3 nShape = dr > dz ? (rho > 0 ? Vec3(pb.x() / rho, pb.y() / rho, 0) : Vec3(1, 0, 0))
+                                  : Vec3(0, 0, pb.z() >= 0 ? 1 : -1);
+      const Hit h = nodeHit(ta, tb, ni, nShape, std::max(dr, dz), x[a], ra, rbS, factor, sign);
+      if (h.kw > 0) hits.push_back(h);
+    }
+    return;
+  }
   for (const std::uint32_t ni : list) {
     const Vec3 pb = m * ta.nodeP[ni] + off;
     const double s = sdfShape(tid[b], pb);
     if (s >= 0) continue;
-    const Hit h = nodeHit(ta, tb, ni, pb, s, x[a], ra, rbS, factor, sign);
+    const Hit h = nodeHit(ta, tb, ni, tb.shape->normal(pb), s, x[a], ra, rbS, factor, sign);
     if (h.kw > 0) hits.push_back(h);
   }
 }

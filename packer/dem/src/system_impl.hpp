@@ -212,7 +212,7 @@ struct DemSystem::Impl {
                const ContactLaw& law, ContactOut& out) const;
   // narrow_phase.cpp
   Hit nodeHit(const ParticleTemplate& ta, const ParticleTemplate& tb, std::uint32_t ni,
-              const Vec3& pb, double s, const Vec3& xa, const Eigen::Matrix3d& ra,
+              const Vec3& nShape, double s, const Vec3& xa, const Eigen::Matrix3d& ra,
               const Eigen::Matrix3d& rbS, double factor, double sign) const;
   void searchNodes(std::size_t a, std::size_t b, const Eigen::Matrix3d& ra,
                    const Eigen::Matrix3d& rbS, const Eigen::Matrix3d& m, const Vec3& off,
