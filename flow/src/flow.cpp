@@ -313,13 +313,13 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
 
   Built built = buildDomain(bed, o);
   if (interpolated) {
-    // Before the distance is allocated: the flags, the distance and the solver with every
-    // fluid-to-solid link interpolated (32 bytes each) must fit.
+    // Before the distance is allocated: the flags, the distance, the exact cuts and the
+    // solver with every fluid-to-solid link interpolated must fit.
     const std::uint64_t box = built.domain.fluid.size();
     std::uint64_t fluid = 0;
     for (std::uint8_t f : built.domain.fluid) fluid += f != 0;
     const std::uint64_t links = detail::countWallLinks(built.domain, o.lbm.threads);
-    requireWithinBudget((2 + detail::kDistanceBytesPerCell) * box +
+    requireWithinBudget((2 + detail::kDistanceBytesPerCell) * box + detail::kWallCutBytes * links +
                             estimateLbmBytes(box, fluid, o.lbm.precision, links),
                         budget, "flow (lattice Boltzmann, interpolated walls)");
     detail::DomainMap map;
@@ -360,6 +360,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   lo.force = 32.0 * nu * o.latticeVelocity / (dh * dh);
   rep.lbm = runLbm(built.domain, lo, budget, progress);
   std::vector<float>().swap(built.domain.signedDistance);  // the links hold what it gave
+  std::vector<WallCut>().swap(built.domain.wallCuts);
   const LbmResult& r = rep.lbm;
 
   // Volumes: mask voxels of the sample (times the mirror copies).

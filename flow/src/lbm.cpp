@@ -443,8 +443,14 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
         if (id[so] >= 0) continue;  // fluid neighbour: plain streaming
         const double phiS = dom.signedDistance[so];
         if (!(phiS <= 0)) continue;  // a solid the distance does not describe: halfway
-        const double qw = std::clamp(phiF / (phiF - phiS), 1e-3, 1.0);
         const std::uint32_t opp = static_cast<std::uint32_t>(kOpposite[q]);
+        double qw = phiF / (phiF - phiS);
+        if (!dom.wallCuts.empty()) {  // the exact cut of this link (towards the wall: opp)
+          const WallCut key{off, opp, 0.0f};
+          const auto it = std::lower_bound(dom.wallCuts.begin(), dom.wallCuts.end(), key);
+          if (it != dom.wallCuts.end() && it->cell == off && it->direction == opp) qw = it->q;
+        }
+        qw = std::clamp(qw, 1e-3, 1.0);
         WallLink lk{static_cast<std::uint32_t>(c),
                     static_cast<std::uint32_t>(q),
                     static_cast<std::uint32_t>(c * kQ + opp),
@@ -605,6 +611,8 @@ LbmResult runLbm(const LbmDomain& domain, const LbmOptions& o, const MemoryBudge
     throw InputError("flow: the sample flags do not match the lattice size");
   if (!domain.signedDistance.empty() && domain.signedDistance.size() != box)
     throw InputError("flow: the signed distance does not match the lattice size");
+  if (!std::is_sorted(domain.wallCuts.begin(), domain.wallCuts.end()))
+    throw InputError("flow: the wall cuts are not sorted by (cell, direction)");
   if (o.axis < 0 || o.axis > 2) throw InputError("flow: axis must be 0 (z), 1 (y) or 2 (x)");
   if (!(o.tauPlus > 0.5) || !std::isfinite(o.tauPlus))
     throw InputError("flow: tau must be greater than 0.5");

@@ -43,13 +43,16 @@ struct WallReport {
 
 /// Bytes of the distance field per box cell (float).
 inline constexpr std::uint64_t kDistanceBytesPerCell = sizeof(float);
+/// Bytes of one exact wall cut (LbmDomain::wallCuts) per interpolated link.
+inline constexpr std::uint64_t kWallCutBytes = sizeof(WallCut);
 
 /// Links from a fluid cell to a solid cell of `domain` (the solver's own count of wall
 /// links that may become interpolated), for the memory estimate.
 std::uint64_t countWallLinks(const LbmDomain& domain, int threads);
 
-/// Fills domain.signedDistance (box cells, > 0 in fluid, voxels) from the particle table and
-/// the container of `bed`'s provenance. Cells within one D3Q19 link of a fluid/solid
+/// Fills domain.signedDistance (box cells, > 0 in fluid, voxels) and domain.wallCuts (the
+/// exact cut of each link the solver interpolates) from the particle table and the
+/// container of `bed`'s provenance. Cells within one D3Q19 link of a fluid/solid
 /// interface get min(container, particles) evaluated at their centre; every other cell
 /// +-3 by its flag. Solid cells no exact surface describes get a positive value, so the
 /// solver keeps halfway bounce-back there.

@@ -38,6 +38,18 @@ enum class Streaming {
 /// Text of a streaming scheme: "auto", "aa", "two_lattice".
 const char* streamingName(Streaming s);
 
+/// Where the link from fluid cell `cell` (C-order offset) along D3Q19 velocity `direction`
+/// (towards the solid neighbour) meets the wall: at `q` of its length, in (0, 1].
+struct WallCut {
+  std::uint64_t cell = 0;       ///< C-order offset of the fluid cell in the box
+  std::uint32_t direction = 0;  ///< D3Q19 velocity index pointing from the fluid into the solid
+  float q = 0.5f;               ///< wall position along the link, in link lengths
+  /// Order of the list (cell, then direction).
+  bool operator<(const WallCut& o) const {
+    return cell != o.cell ? cell < o.cell : direction < o.direction;
+  }
+};
+
 /// The lattice the solver runs on: a box of cells in C order (z, y, x), fluid or solid.
 struct LbmDomain {
   std::array<std::int64_t, 3> dims{0, 0, 0};  ///< (nz, ny, nx) cells
@@ -51,6 +63,10 @@ struct LbmDomain {
   /// Bouzidi's linear interpolated bounce-back there instead of halfway bounce-back
   /// (docs/flow.md); links leaving a wall-bounded box face stay halfway. Empty = halfway.
   std::vector<float> signedDistance;
+  /// Optional exact wall cuts, sorted by (cell, direction): where a link has one, its q
+  /// replaces the ratio of the two centre distances above, which is exact at a plane but
+  /// not at an edge, where the distance outside is rounded (docs/flow.md).
+  std::vector<WallCut> wallCuts;
 };
 
 /// Solver settings (lattice units: spacing 1, time step 1, rest density 1).
