@@ -331,16 +331,18 @@ WallReport buildWallDistance(const Bed& bed, const DomainMap& map, LbmDomain& do
   const std::size_t box = static_cast<std::size_t>(d[0] * d[1] * d[2]);
   dom.signedDistance.assign(box, 0.0f);
   const double len = static_cast<double>(map.sampleLength);
-  // The exact distance (voxels) at a point of the solver lattice's continuous index (z, y, x
-  // in array order), with the particles of `bin` (the cell list's bin of a point within one
-  // link of it: the particles are binned with a band of 2 voxels).
-  auto distanceAt = [&](const double at[3], const Vec3& binAt) {
-    // The point's place in the sample: reservoir points lie outside [-1/2, len - 1/2) along
-    // the axis, mirror points map back onto the sample (about its last face).
+  // A point of the solver lattice's continuous index (z, y, x in array order) as a point of
+  // the sample (x, y, z): reservoir points lie outside [-1/2, len - 1/2) along the axis,
+  // mirror points map back onto the sample (about its last face).
+  auto toSample = [&](const double at[3]) {
     double s[3] = {at[0], at[1], at[2]};
     s[ax] -= static_cast<double>(map.sampleStart);
     if (map.mirror && s[ax] > len - 0.5) s[ax] = 2 * len - 1 - s[ax];
-    const Vec3 x(s[2], s[1], s[0]);
+    return Vec3(s[2], s[1], s[0]);
+  };
+  // The exact distance (voxels) at sample point x, with the particles of the cell-list bin of
+  // `binAt`, a point within one link of x (the particles are binned with a band of 2 voxels).
+  auto distanceAt = [&](const Vec3& x, const Vec3& binAt) {
     // Outside the sample slab (reservoirs), the particles are cut by its faces.
     const double slab = map.reservoirs ? std::max(-0.5 - x[cax], x[cax] - (len - 0.5)) : -kInf;
     double phi = wall.distance(x);
@@ -354,12 +356,6 @@ WallReport buildWallDistance(const Bed& bed, const DomainMap& map, LbmDomain& do
       phi = std::min(phi, std::max(exactDistance(p.shape, p.toBody * rel), slab));
     }
     return phi;
-  };
-  auto binPoint = [&](const double at[3]) {
-    double s[3] = {at[0], at[1], at[2]};
-    s[ax] -= static_cast<double>(map.sampleStart);
-    if (map.mirror && s[ax] > len - 0.5) s[ax] = 2 * len - 1 - s[ax];
-    return Vec3(s[2], s[1], s[0]);
   };
   std::size_t band = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : band) num_threads(std::max(1, threads))
@@ -382,10 +378,10 @@ WallReport buildWallDistance(const Bed& bed, const DomainMap& map, LbmDomain& do
         ++band;
         const double at[3] = {static_cast<double>(k), static_cast<double>(j),
                               static_cast<double>(i)};
+        const Vec3 x = toSample(at);
         // No exact surface within the band: a value of the fluid's sign (a solid cell that
         // no exact surface describes then keeps halfway bounce-back).
-        dom.signedDistance[off] =
-            static_cast<float>(std::clamp(distanceAt(at, binPoint(at)), -3.0, 3.0));
+        dom.signedDistance[off] = static_cast<float>(std::clamp(distanceAt(x, x), -3.0, 3.0));
       }
 
   // The exact cut of every link the solver will interpolate (fluid centre > 0, solid centre
@@ -405,7 +401,7 @@ WallReport buildWallDistance(const Bed& bed, const DomainMap& map, LbmDomain& do
         if (!dom.fluid[off] || !(dom.signedDistance[off] > 0)) continue;
         const double at[3] = {static_cast<double>(k), static_cast<double>(j),
                               static_cast<double>(i)};
-        const Vec3 binAt = binPoint(at);
+        const Vec3 binAt = toSample(at);
         for (int q = 1; q < kQ; ++q) {
           std::int64_t p[3] = {k, j, i};
           if (!neighbourOf(d, dom.periodic, p, kC[q])) continue;
@@ -413,7 +409,7 @@ WallReport buildWallDistance(const Bed& bed, const DomainMap& map, LbmDomain& do
           if (dom.fluid[so] || !(dom.signedDistance[so] <= 0)) continue;
           auto phiAt = [&](double t) {
             const double x[3] = {at[0] + t * kC[q][0], at[1] + t * kC[q][1], at[2] + t * kC[q][2]};
-            return distanceAt(x, binAt);
+            return distanceAt(toSample(x), binAt);
           };
           double a = 0, fa = phiAt(0), b = 1, fb = phiAt(1);
           if (!(fa > 0) || !(fb <= 0)) continue;  // the centres disagree: the ratio stays
