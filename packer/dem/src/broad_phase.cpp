@@ -40,7 +40,7 @@ void DemSystem::Impl::rebuildNeighbours() {
   // same for any thread count. The key keeps x in its low bits, so the three cells x-1..x+1
   // of one (y, z) row are one key range: nine searches a particle, not 27.
   std::vector<std::uint64_t> found;
-  const int nt = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
+  const int nt = particleThreads();
 #pragma omp parallel num_threads(nt)
   {
     std::vector<std::uint64_t> local;

@@ -23,13 +23,13 @@ void quatStep(const Quat& q, const Vec3& theta, Quat& out) {
 // parallel region a step instead of four passes. Returns that largest squared move.
 double DemSystem::Impl::kickDrift(double h) {
   const std::int64_t n = static_cast<std::int64_t>(x.size());
-  const int nt = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
+  const int nt = particleThreads();
   const double bound2 = speedBound * speedBound;
   double maxMove2 = 0;
   int blownUp = 0;
-#pragma omp parallel for num_threads(nt) schedule(static) reduction(max         \
-                                                                    : maxMove2) \
-    reduction(|                                                                 \
+#pragma omp parallel for num_threads(nt) schedule(static, 32) reduction(max         \
+                                                                        : maxMove2) \
+    reduction(|                                                                     \
               : blownUp)
   for (std::int64_t si = 0; si < n; ++si) {
     const std::size_t i = static_cast<std::size_t>(si);

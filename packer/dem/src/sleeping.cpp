@@ -35,11 +35,11 @@ std::size_t DemSystem::Impl::sleepUpdate() {
   const double vWake = 10 * vSleep;
   const std::uint32_t need =
       static_cast<std::uint32_t>(std::max(1.0, std::ceil(opt.sleepTimeS / dt)));
-  const int nt = threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * 64);
+  const int nt = particleThreads();
   std::vector<std::uint8_t> fast(n, 0);
 #pragma omp parallel num_threads(nt)
   {
-#pragma omp for schedule(static)
+#pragma omp for schedule(static, 32)
     for (std::int64_t si = 0; si < sn; ++si) {
       const auto i = static_cast<std::size_t>(si);
       if (!awake[i]) continue;
@@ -49,7 +49,7 @@ std::size_t DemSystem::Impl::sleepUpdate() {
       fast[i] = speed >= vWake ? 1 : 0;
     }
     // Each particle looks at its own neighbours: woken (2) when one of them moves fast.
-#pragma omp for schedule(static)
+#pragma omp for schedule(static, 32)
     for (std::int64_t si = 0; si < sn; ++si) {
       const auto i = static_cast<std::size_t>(si);
       bool neighbourFast = false;

@@ -191,6 +191,7 @@ struct DemSystem::Impl {
   double rMax() const;
   double dMin() const;
   int threadsFor(double items, double work) const;  // 1 below the parallel thresholds
+  int particleThreads() const;  // threads of the per-particle passes (with the contacts')
   Body body(std::size_t i) const;
 
   // tapping.cpp
