@@ -106,6 +106,10 @@ const std::vector<DemKey>& demKeys() {
        "DEM: rolling resistance mu_r >= 0 of pair and wall contacts (constant directional "
        "torque mu_r |Fn| R); 0 = none (default)",
        &O::rollingFriction, nullptr, nonNegative, ">= 0"},
+      {"--contact-voxel", "contact_voxel_mm",
+       "DEM: spacing of the contact surface nodes, mm; 0 = --voxel-size (default). Coarser is "
+       "faster; the bed is still digitised at --voxel-size (docs/dem.md)",
+       &O::contactVoxelMm, nullptr, nonNegative, ">= 0"},
       {"--rain-speed", "rain_speed_mm_s", "DEM: initial downward speed, mm/s (default 0)",
        &O::rainSpeedMmPerS, nullptr, nonNegative, ">= 0"},
   };
@@ -419,6 +423,7 @@ class DemMode final : public PackMode {
         {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
         {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},
         {"rolling_friction", o.rollingFriction},
+        {"contact_voxel_mm", o.contactVoxelMm > 0 ? o.contactVoxelMm : scene.voxelSizeMm},
         {"size_distribution", packer::dem::toJson(sizes)},
         {"dem_wall_time_s", r.wallTimeS},
         {"threads", o.threads},

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # voxpack DEM against LIGGGHTS 3.8 in the same run, one thread / one process each
 # (docs/dem.md "Speed against LIGGGHTS"). Prints the ratios; raw JSON to OUT/dem_peers.json.
-#   bench/dem/peer_compare.sh BUILD_DIR OUT_DIR [spheres|cylinders|all] [SEED]
+#   bench/dem/peer_compare.sh BUILD_DIR OUT_DIR [spheres|cylinders|all] [SEED] [CONTACT_VOXELS]
+# CONTACT_VOXELS (default "0"): the cylinder scene is run by voxpack once per value of
+# --contact-voxel (mm; 0 = the lattice's 0.27 mm), each against the same LIGGGHTS run; the bed
+# is digitised at 0.27 mm every time (docs/dem.md "Contact nodes coarser than the lattice").
 # Scenes (bench/peers/README.md):
 #   spheres:   2000 spheres d 5.4 mm, column D/d 8 (43.2 mm), mu 0.3, e 0.5, rho 2.5 g/cm^3
 #   cylinders: the paper's bed (samples/paper_dem.toml: cylinders d 5.4 l 3.8, mu 0.1, 0.27 mm)
@@ -19,6 +22,7 @@ build=${1:?build dir}
 out=${2:?output dir}
 which=${3:-all}
 seed=${4:-1}
+contact_voxels=${5:-0}
 vox="$build/bin/voxpack"
 mkdir -p "$out"
 load() { cut -d' ' -f1-3 /proc/loadavg; }
@@ -43,9 +47,16 @@ if [[ $which == spheres || $which == all ]]; then
 fi
 if [[ $which == cylinders || $which == all ]]; then
   PEERS_OUT="$out/liggghts" SHAPE=cyl timed lig_cylinders bash "$root/bench/peers/liggghts_column.sh" 600 8 0.1 "$seed" 1
-  timed vox_cylinders "$vox" --threads 1 pack --config "$root/samples/paper_dem.toml" \
-    --rain-height 0 --rain-fraction 0.15 --settle-speed 0 --seed "$seed" -o "$out/vox_cylinders.h5"
-  rows+=(cylinders)
+  for cv in $contact_voxels; do
+    name=cylinders
+    [[ $cv == 0 ]] || name=cylinders_cv$cv
+    timed "vox_$name" "$vox" --threads 1 pack --config "$root/samples/paper_dem.toml" \
+      --rain-height 0 --rain-fraction 0.15 --settle-speed 0 --seed "$seed" \
+      --contact-voxel "$cv" -o "$out/vox_$name.h5"
+    [[ $name == cylinders ]] || cp "$out/lig_cylinders.time" "$out/lig_$name.time"
+    [[ $name == cylinders ]] || cp "$out/lig_cylinders.load" "$out/lig_$name.load"
+    rows+=("$name")
+  done
 fi
 /usr/bin/python3 - "$out" "$seed" "$vox" "${rows[@]}" <<'PY'
 import json, subprocess, sys
@@ -70,6 +81,8 @@ for r in rows:
                         "voxpack_particles": info["particles"],
                         "voxpack_simulated_s": dem["simulated_time_s"], "voxpack_steps": dem["steps"],
                         "voxpack_time_step_s": dem["time_step_s"],
+                        "voxpack_contact_voxel_mm": dem.get("contact_voxel_mm"),
+                        "voxpack_per_simulated_s": vw / dem["simulated_time_s"],
                         "voxpack_mean_overlap_d": dem.get("mean_overlap_d"),
                         "voxpack_density": info.get("packing_density", info.get("density")),
                         "liggghts_settled": meta.get("settled"), "liggghts_atoms": meta.get("atoms"),

@@ -76,6 +76,22 @@ TEST(CliPackDem, TomlTableAndFlagsWin) {
   EXPECT_DOUBLE_EQ(dem.at("restitution").get<double>(), 0.2);
   EXPECT_FALSE(dem.at("sleeping").get<bool>());
   EXPECT_DOUBLE_EQ(dem.at("rolling_friction").get<double>(), 0.05);
+  // The contact nodes follow the lattice unless --contact-voxel says otherwise.
+  EXPECT_DOUBLE_EQ(dem.at("contact_voxel_mm").get<double>(), 0.5);
+}
+
+// --contact-voxel: coarser contact nodes, the bed still digitised at --voxel-size.
+TEST(CliPackDem, ContactVoxelCoarserThanTheLattice) {
+  TempDir tmp;
+  auto args = baseArgs(tmp);
+  args[6] = "cylinder:d=3,l=2";
+  for (const char* a : {"--contact-voxel", "0.75"}) args.push_back(a);
+  const CliResult r = runVoxpack(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const Bed bed = readBed(tmp / "bed.h5");
+  EXPECT_DOUBLE_EQ(bed.provenance.at("dem").at("contact_voxel_mm").get<double>(), 0.75);
+  EXPECT_DOUBLE_EQ(bed.lattice().spacingMm[0], 0.5);
+  EXPECT_EQ(bed.particles.size(), 10u);
 }
 
 TEST(CliPackDem, BadValuesExitTwoWithOneErrorLine) {
@@ -105,7 +121,8 @@ TEST(CliPackDem, InvalidDemTomlValuesExitTwoNamingTheKey) {
                                                         {"rain_volume_fraction", "1.5"},
                                                         {"time_step_fraction", "0.5"},
                                                         {"wall_restitution", "2"},
-                                                        {"rolling_friction", "-0.1"}}) {
+                                                        {"rolling_friction", "-0.1"},
+                                                        {"contact_voxel_mm", "-0.2"}}) {
     TempDir tmp;
     {
       std::ofstream f(tmp / "scene.toml");

@@ -147,8 +147,11 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
 
   std::vector<ParticleTemplate> templates;
   double vMean = 0, dMax = 0, rMax = 0, massMean = 0;
+  // The contact nodes may be coarser than the lattice the bed is digitised on.
+  const double nodeSpacingMm =
+      options.contactVoxelMm > 0 ? options.contactVoxelMm : scene.voxelSizeMm;
   for (std::size_t s = 0; s < scene.shapes.size(); ++s) {
-    templates.push_back(buildTemplate(scene.shapes[s], scene.voxelSizeMm, options.densityGPerCm3));
+    templates.push_back(buildTemplate(scene.shapes[s], nodeSpacingMm, options.densityGPerCm3));
     const double f = (cum[s] - (s ? cum[s - 1] : 0)) / total;
     vMean += f * scene.shapes[s]->volumeMm3();
     massMean += f * templates.back().massG;

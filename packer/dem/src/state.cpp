@@ -94,7 +94,8 @@ json toJson(const DemOptions& o) {
           {"rain_volume_fraction", o.rainVolumeFraction},
           {"rain_speed_mm_s", o.rainSpeedMmPerS},
           {"fill_height_phi_guess", o.fillHeightPhiGuess},
-          {"node_skin_d", o.nodeSkinDiameters}};
+          {"node_skin_d", o.nodeSkinDiameters},
+          {"contact_voxel_mm", o.contactVoxelMm}};
 }
 
 DemOptions optionsFromJson(const json& j) {
@@ -131,6 +132,7 @@ DemOptions optionsFromJson(const json& j) {
     o.rainSpeedMmPerS = j.at("rain_speed_mm_s").get<double>();
     o.fillHeightPhiGuess = j.at("fill_height_phi_guess").get<double>();
     o.nodeSkinDiameters = j.at("node_skin_d").get<double>();
+    o.contactVoxelMm = j.value("contact_voxel_mm", 0.0);  // absent in states before it existed
   } catch (const json::exception& e) {
     throw FormatError(std::string("checkpoint: malformed DEM options (") + e.what() + ")");
   }

@@ -151,6 +151,11 @@ struct DemOptions {
   /// are the same for any value. 0.01 rather than 0.03: a third of the nodes to evaluate each
   /// step for a few more re-searches (docs/dem.md, "Narrow phase with node lists").
   double nodeSkinDiameters = 0.01;
+  /// Spacing of the surface nodes that carry the contacts, mm; 0 = the scene's voxel size.
+  /// Coarser is faster (nodes ~ 1/h^2 a particle; the node forces are per area, so the
+  /// contact law is the same), at an accuracy measured in docs/dem.md ("Contact nodes
+  /// coarser than the lattice"); the bed is still digitised at the scene's voxel size.
+  double contactVoxelMm = 0;
   int threads = 1;  ///< worker threads (results do not depend on it)
   /// Fewest neighbour pairs (particles / 4) worth a parallel region; tuning only.
   std::int64_t parallelMinItems = 64;
