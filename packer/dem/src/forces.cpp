@@ -26,8 +26,8 @@ void DemSystem::Impl::computeForces(double kick) {
   // more on an oversubscribed machine. Poses, pairs and walls share one region. Poses and
   // pairs are dealt in fixed interleaved chunks of 32: each pair's spring and output stay
   // in one core's cache from step to step (dynamic chunks moved them between the cores
-  // every step: 2 threads ran 4-10 % slower on the paper's bed), and the walls, dealt
-  // dynamically after the pairs without a barrier, even out the load.
+  // every step: on the paper's bed 2 threads took 0.4-14 % longer in 4 alternating runs),
+  // and the walls, dealt dynamically after the pairs without a barrier, even out the load.
   const int forceThreads =
       std::max(threadsFor(static_cast<double>(np), static_cast<double>(np) * meanWork),
                threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * meanWork));
