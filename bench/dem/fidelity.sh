@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# DEM fidelity beyond the paper (docs/dem.md "Random close packing", "Mean voidage against
+# Benyahia & O'Neill"). Not run by ctest: each bed takes minutes.
+#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|voidage|all] [THREADS] [SEED] [FRICTIONS]
+# rcp:     5000 frictionless spheres d 3 mm in a 48 mm column (D/d 16), e 0.5, 0.3 mm
+#          voxels, poured, and poured + 5 taps; bulk voxel density >= 3 d from wall, floor and
+#          top, g(r) from the centres (bench/dem/bed_structure.py).
+# voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
+#          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
+#          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
+# Raw JSON per bed in OUT_DIR/NAME.json and all of them in OUT_DIR/dem_fidelity.json.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+build=${1:?build dir}
+out=${2:?output dir}
+which=${3:-all}
+threads=${4:-2}
+seed=${5:-1}
+frictions=${6:-0.1 0.2 0.3}
+vox="$build/bin/voxpack"
+mkdir -p "$out"
+
+run() {  # NAME D_MM ARGS...
+  local name=$1 d=$2
+  shift 2
+  local l0
+  l0=$(cut -d' ' -f1-3 /proc/loadavg)
+  /usr/bin/time -f "%e %U %M" -o "$out/$name.time" "$vox" --threads "$threads" pack --mode dem \
+    --seed "$seed" "$@" -o "$out/$name.h5" >"$out/$name.out" 2>"$out/$name.err"
+  echo "$l0 | $(cut -d' ' -f1-3 /proc/loadavg)" >"$out/$name.load"
+  "$vox" info --json "$out/$name.h5" >"$out/$name.info.json"
+  "$build/bin/dem_bed_density" "$out/$name.h5" "$d" >"$out/$name.density.json"
+  /usr/bin/python3 "$here/bed_structure.py" "$out/$name.h5" "$d" >"$out/$name.structure.json"
+  /usr/bin/python3 - "$out" "$name" "$*" <<'PY'
+import json, sys
+out, name, args = sys.argv[1:4]
+b = f"{out}/{name}"
+info = json.load(open(b + ".info.json"))
+dem = info["provenance"]["dem"]
+wall, user, rss = open(b + ".time").read().split()[-3:]
+s = json.load(open(b + ".structure.json"))
+res = {"name": name, "args": args, "status": info["provenance"]["status"],
+       "particles": info["particles"], "wall_s": float(wall), "cpu_user_s": float(user),
+       "max_rss_kb": int(rss), "load_1_5_15_before_after": open(b + ".load").read().strip(),
+       "simulated_time_s": dem["simulated_time_s"], "steps": dem["steps"],
+       "mean_overlap_d": dem.get("mean_overlap_d"), "max_overlap_d": dem.get("max_overlap_d"),
+       "dem_bed_density": json.load(open(b + ".density.json")),
+       "structure": {k: v for k, v in s.items() if k not in ("g", "g_r_d")},
+       "g_r_d": s["g_r_d"], "g": s["g"]}
+json.dump(res, open(b + ".json", "w"), indent=1)
+st = res["structure"]
+print(f"{name}: {res['status']}, {res['particles']} spheres, {res['wall_s']:.0f} s wall, "
+      f"bed phi {st['mean_phi_bed']:.4f}, bulk phi {st['bulk_phi']:.4f}, "
+      f"g peak {st['g_contact_peak']:.2f} at {st['g_contact_peak_r_d']:.3f} d", flush=True)
+PY
+  rm -f "$out/$name.h5"
+}
+
+if [[ $which == rcp || $which == all ]]; then
+  # 5000 spheres of 14.14 mm^3 at ~0.62 fill ~63 mm of a 48 mm column.
+  common=(--shape sphere:d=3 --container cylinder:d=48,h=110 --voxel-size 0.3 --count 5000
+    --friction 0 --restitution 0.5 --max-time 8)
+  run rcp_poured 3 "${common[@]}"
+  run rcp_tapped 3 "${common[@]}" --tap-cycles 5
+fi
+if [[ $which == voidage || $which == all ]]; then
+  for mu in $frictions; do
+    # D/d: count (bed ~ 30/25/20/15/10 d deep at phi ~ 0.6)
+    for spec in 3:220 5:560 8:1150 12:1950 20:3600; do
+      r=${spec%%:*}
+      n=${spec##*:}
+      dd=$(/usr/bin/python3 -c "print(3 * $r)")
+      h=$(/usr/bin/python3 -c "print(round(3 * $n * 4.5 / (0.55 * 3.1416 * ($r * 3) ** 2 / 4) * 1.4 + 30))")
+      run "voidage_r${r}_mu${mu}" 3 --shape sphere:d=3 --container "cylinder:d=$dd,h=$h" \
+        --voxel-size 0.3 --count "$n" --friction "$mu" --restitution 0.5 --max-time 8
+    done
+  done
+fi
+/usr/bin/python3 - "$out" <<'PY'
+import glob, json, sys
+out = sys.argv[1]
+rows = [json.load(open(p)) for p in sorted(glob.glob(f"{out}/*.json"))
+        if not p.endswith((".info.json", ".density.json", ".structure.json", "dem_fidelity.json"))]
+for r in rows:
+    if r["name"].startswith("voidage"):
+        ratio = r["structure"]["column_D_over_d"]
+        nominal = float(r["name"].split("_r")[1].split("_")[0])
+        r["benyahia_voidage"] = 0.390 + 1.740 / (nominal + 1.140) ** 2
+        r["voidage_minus_benyahia"] = r["structure"]["mean_voidage_bed"] - r["benyahia_voidage"]
+json.dump({"what": "DEM fidelity: random close packing and mean voidage (bench/dem/fidelity.sh)",
+           "beds": rows}, open(f"{out}/dem_fidelity.json", "w"), indent=1)
+for r in rows:
+    if "benyahia_voidage" in r:
+        print(f"{r['name']}: voidage {r['structure']['mean_voidage_bed']:.4f}, Benyahia "
+              f"{r['benyahia_voidage']:.4f}, difference {r['voidage_minus_benyahia']:+.4f}")
+PY
