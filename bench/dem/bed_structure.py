@@ -74,10 +74,16 @@ def main():
     rho = n_bulk / vol_bulk
     edges = np.arange(0, a.rmax_d * d + 1e-12, a.bin_d * d)
     hist = np.zeros(len(edges) - 1)
+    # One pass over the bulk spheres: g(r)'s histogram, the nearest neighbour (contact
+    # overlaps show as < 1 d) and the contacts (centres closer than d: every touching pair
+    # overlaps a little).
+    nn, contacts = [], []
     for p in pos[ref]:
         dist = np.linalg.norm(pos - p, axis=1)
-        dist = dist[(dist > 1e-9) & (dist < edges[-1])]
-        hist += np.histogram(dist, edges)[0]
+        dist = dist[dist > 1e-9]
+        hist += np.histogram(dist[dist < edges[-1]], edges)[0]
+        nn.append(np.min(dist) / d)
+        contacts.append(int((dist < d).sum()))
     shell = 4.0 / 3.0 * math.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
     g = hist / max(1, n_bulk) / (rho * shell) if n_bulk else hist
     r = 0.5 * (edges[1:] + edges[:-1]) / d
@@ -92,14 +98,6 @@ def main():
     # The split second peak: the largest g within +-0.03 d of sqrt(3) d and of 2 d.
     s3_r, s3_g = at(math.sqrt(3) - 0.03, math.sqrt(3) + 0.03, np.argmax)
     s2_r, s2_g = at(1.97, 2.03, np.argmax)
-    # Nearest-neighbour distance of the bulk spheres (contact overlaps show as < 1 d) and their
-    # contacts (centres closer than d: every touching pair overlaps a little).
-    nn, contacts = [], []
-    for p in pos[ref]:
-        dist = np.linalg.norm(pos - p, axis=1)
-        dist = dist[dist > 1e-9]
-        nn.append(np.min(dist) / d)
-        contacts.append(int((dist < d).sum()))
     out = {
         "bed": a.bed,
         "d_mm": d,

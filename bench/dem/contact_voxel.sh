@@ -41,7 +41,8 @@ for seed in seeds:
         wall, user, rss = open(b + ".time").read().split()[-3:]
         dem = json.load(open(b + ".info.json"))["provenance"]["dem"]
         dens = json.load(open(b + ".density.json"))
-        rows.append({"seed": int(seed), "contact_voxel_mm": dem["contact_voxel_mm"], "wall_s": float(wall),
+        rows.append({"seed": int(seed), "contact_voxel_arg": cv,
+                     "contact_voxel_mm": dem["contact_voxel_mm"], "wall_s": float(wall),
                      "cpu_user_s": float(user), "max_rss_kb": int(rss),
                      "load_before_after": open(b + ".load").read().split("\n")[:2],
                      "status": json.load(open(b + ".info.json"))["provenance"]["status"],
@@ -50,7 +51,7 @@ for seed in seeds:
                      "axial_std": dens["axial_std"]})
 summary = {}
 for cv in cvs:
-    sel = [r for r in rows if r["contact_voxel_mm"] == (float(cv) if float(cv) > 0 else 0.27)]
+    sel = [r for r in rows if r["contact_voxel_arg"] == cv]
     w = [r["window_density"] for r in sel]
     c = [r["core_density"] for r in sel]
     summary[cv] = {"contact_voxel_mm": sel[0]["contact_voxel_mm"], "beds": len(sel),

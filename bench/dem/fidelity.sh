@@ -83,7 +83,6 @@ rows = [json.load(open(p)) for p in sorted(glob.glob(f"{out}/*.json"))
         if not p.endswith((".info.json", ".density.json", ".structure.json", "dem_fidelity.json"))]
 for r in rows:
     if r["name"].startswith("voidage"):
-        ratio = r["structure"]["column_D_over_d"]
         nominal = float(r["name"].split("_r")[1].split("_")[0])
         r["benyahia_voidage"] = 0.390 + 1.740 / (nominal + 1.140) ** 2
         r["voidage_minus_benyahia"] = r["structure"]["mean_voidage_bed"] - r["benyahia_voidage"]

@@ -25,6 +25,8 @@ if [[ -z $bed ]]; then
     --rain-fraction 0.15 --settle-speed 0 --seed "$seed" -o "$bed" >"$out/poured.out" 2>"$out/poured.err"
 fi
 "$build/bin/dem_bed_density" "$bed" 5.4 >"$out/start.density.json"
+# The [dem] values of samples/paper_dem.toml as flags: the scene file also sets a fill height,
+# which with --from would pour more on top.
 for s in on off; do
   /usr/bin/time -f "%e %U" -o "$out/$s.time" "$vox" --threads 1 pack --mode dem --from "$bed" \
     --friction 0.1 --restitution 0.5 --density 1.5 --sleeping "$s" --settle-kinetic 1e-12 \
