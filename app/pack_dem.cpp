@@ -391,6 +391,7 @@ class DemMode final : public PackMode {
         {"density_g_cm3", o.densityGPerCm3},
         {"stiffness_n_mm3", r.stiffnessNPerMm3},
         {"stiffness_auto", o.stiffnessNPerMm3 == 0},
+        {"stiffness_load_height_mm", r.loadHeightMm},
         {"target_overlap", o.targetOverlap},
         {"contact_stiffness_cap", o.contactStiffnessCap},
         {"time_step_s", r.timeStepS},

@@ -63,6 +63,63 @@ TEST(DemPack, IdenticalForAnyThreadCount) {
   expectIdenticalBeds(r[0], r[1]);
 }
 
+// Once most of a bed sleeps a step visits only the live set (the awake particles, the
+// sleepers touching them, their pairs); that must be the full pass's bed to the last bit,
+// through a pour, its sleepers and the taps that wake them all, on one and two threads.
+TEST(DemPack, LiveSetStepsGiveTheFullPassBed) {
+  DemScene s = smallScene(30, 9);
+  s.shapes = {std::make_shared<TestCylinder>(3.0, 2.1)};
+  DemOptions o;
+  o.friction = 0.3;
+  o.maxTimeS = 3;
+  o.tapCycles = 1;
+  o.parallelMinItems = 1;
+  o.parallelMinNodeWork = 0;
+  DemResult full, live[2];
+  o.liveSetAwakeFraction = 0;  // always the full pass
+  full = runDem(s, o, nullProgress());
+  o.liveSetAwakeFraction = 2;  // the live set whenever any particle sleeps
+  for (int t = 0; t < 2; ++t) {
+    o.threads = t + 1;
+    live[t] = runDem(s, o, nullProgress());
+  }
+  ASSERT_EQ(full.status, packer::dem::DemStatus::kSettled);
+  ASSERT_EQ(full.particles.size(), 30u);
+  // The live runs did skip: fewer pairs checked, the same pairs evaluated.
+  EXPECT_LT(live[0].counters.pairChecks, full.counters.pairChecks * 9 / 10);
+  EXPECT_EQ(live[0].counters.pairEvaluations, full.counters.pairEvaluations);
+  EXPECT_EQ(live[0].counters.steps, full.counters.steps);
+  for (const DemResult& r : live) {
+    EXPECT_EQ(r.status, full.status);
+    EXPECT_EQ(r.simulatedTimeS, full.simulatedTimeS);
+    expectIdenticalBeds(full, r);
+  }
+}
+
+// The auto stiffness carries the weight of a bed only down to three Janssen lengths
+// (3 A / (P K mu_w), K = 0.4): in a 12 mm column at wall friction 0.3 that is 75 mm, however
+// tall the bed; a frictionless wall, or a bed shallower than that, keeps the whole weight.
+TEST(DemPack, AutoStiffnessStopsAtThreeJanssenLengths) {
+  DemScene s = smallScene(2000, 3);
+  s.container = std::make_shared<TestColumn>(12.0, 2000.0);
+  DemOptions o;
+  o.maxTimeS = 1e-4;  // the stiffness is chosen before the first step
+  o.friction = 0.3;
+  const DemResult tall = runDem(s, o, nullProgress());
+  const double bed = 2000 * (kPi / 6 * 27) / (0.6 * kPi * 36);  // as run.cpp sizes it
+  EXPECT_NEAR(tall.loadHeightMm, 3 * 12.0 / (4 * 0.4 * 0.3), 0.03 * 75);
+  o.wallFriction = 0;
+  const DemResult smooth = runDem(s, o, nullProgress());
+  EXPECT_NEAR(smooth.loadHeightMm, bed, 0.02 * bed);
+  // The face stiffness follows the load: k ~ depth.
+  EXPECT_NEAR(tall.stiffnessNPerMm3 / smooth.stiffnessNPerMm3,
+              tall.loadHeightMm / smooth.loadHeightMm, 1e-9);
+  o.wallFriction = -1;
+  s.count = 100;  // ~21 mm deep: under the cap
+  const DemResult shallow = runDem(s, o, nullProgress());
+  EXPECT_NEAR(shallow.loadHeightMm, bed / 20, 0.02 * bed / 20);
+}
+
 // Node lists are a cache: a contact re-searches its nodes only when the relative pose moved
 // more than the skin. Skin 0 searches every step; the forces, hence the bed, must not change.
 TEST(DemPack, NodeListsDoNotChangeTheForces) {

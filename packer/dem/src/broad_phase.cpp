@@ -84,6 +84,7 @@ void DemSystem::Impl::rebuildNeighbours() {
   }
   pairs.swap(fresh);
   pairOut.assign(pairs.size(), PairOut{});
+  pairOutStale = false;  // the live pair indices of the old list mean nothing now
   // Each particle's pairs in pair order (counting sort).
   adjStart.assign(n + 1, 0);
   for (const Pair& p : pairs) {

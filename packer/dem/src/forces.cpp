@@ -10,6 +10,54 @@
 
 namespace voxpack::packer::dem {
 
+// Chooses what this evaluation visits. While liveSetAwakeFraction (a quarter) or more of the
+// particles are awake (a pour's start, a tap, the paper's bed) it is everything. Otherwise it
+// is the awake particles, the sleepers sharing a pair with one, and those pairs: a pair of
+// two sleepers keeps its spring and is never evaluated, and a sleeper's wall forces are
+// zero, so a sleeper away from every awake particle always sums to its weight alone. The
+// sleepers live in the last evaluation are visited once more, which resets their sums to
+// that weight, so every skipped particle holds exactly what a full pass would give it and
+// the bits are those of a full pass.
+void DemSystem::Impl::selectLive() {
+  const std::size_t n = x.size();
+  liveMark.resize(n, 0);
+  std::size_t awakeCount = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    liveMark[i] = static_cast<std::uint8_t>((liveMark[i] & 1) << 1);
+    awakeCount += awake[i] ? 1 : 0;
+  }
+  // Evaluated flags of the last evaluation's pairs go back to false (a full pass resets
+  // them all in its pair loop; a rebuild starts from all false).
+  if (pairOutStale && liveAll) {
+    for (PairOut& po : pairOut) po.evaluated = false;
+  } else if (pairOutStale) {
+    for (const std::uint32_t pi : livePairs) pairOut[pi].evaluated = false;
+  }
+  livePairs.clear();
+  pairOutStale = true;
+  liveAll = liveAllNext ||
+            static_cast<double>(awakeCount) >= opt.liveSetAwakeFraction * static_cast<double>(n);
+  liveAllNext = false;
+  if (liveAll) {
+    std::fill(liveMark.begin(), liveMark.end(), std::uint8_t{3});
+    return;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!awake[i]) continue;
+    liveMark[i] |= 1;
+    for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
+      const Pair& p = pairs[adj[a]];
+      const std::size_t j = p.i == i ? p.j : p.i;
+      liveMark[j] |= 1;
+      if (!awake[j] || i < j) livePairs.push_back(adj[a]);
+    }
+  }
+  std::sort(livePairs.begin(), livePairs.end());
+  liveList.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (liveMark[i]) liveList.push_back(static_cast<std::uint32_t>(i));
+}
+
 void DemSystem::Impl::computeForces(double kick) {
   const std::size_t n = x.size();
   const std::int64_t sn = static_cast<std::int64_t>(n);
@@ -21,7 +69,16 @@ void DemSystem::Impl::computeForces(double kick) {
   omegaW.resize(n);
   std::uint64_t evalsTotal = 0, evaluated = 0, searches = 0;
   std::uint64_t wallEvals = 0, wallSearches = 0;
-  const std::int64_t np = static_cast<std::int64_t>(pairs.size());
+  selectLive();
+  // The pairs visited: all of them, or the live ones (ascending, so the pair-order sums
+  // below meet the evaluated pairs in the same order either way).
+  const std::int64_t np = static_cast<std::int64_t>(liveAll ? pairs.size() : livePairs.size());
+  auto pairAt = [&](std::int64_t k) {
+    return liveAll ? static_cast<std::size_t>(k) : livePairs[static_cast<std::size_t>(k)];
+  };
+  // The particles whose walls and sums are visited: all, or the live ones.
+  const std::int64_t nw = liveAll ? sn : static_cast<std::int64_t>(liveList.size());
+  const double visited = static_cast<double>(nw);
   // Small systems run serial: a parallel region costs more than it saves there, and far
   // more on an oversubscribed machine. Poses, pairs and walls share one region. Poses and
   // pairs are dealt in fixed interleaved chunks of 32: each pair's spring and output stay
@@ -30,7 +87,7 @@ void DemSystem::Impl::computeForces(double kick) {
   // and the walls, dealt dynamically after the pairs without a barrier, even out the load.
   const int forceThreads =
       std::max(threadsFor(static_cast<double>(np), static_cast<double>(np) * meanWork),
-               threadsFor(static_cast<double>(n) / 4, static_cast<double>(n) * meanWork));
+               threadsFor(visited / 4, visited * meanWork));
   if (scratch.size() < static_cast<std::size_t>(forceThreads))
     scratch.resize(static_cast<std::size_t>(forceThreads));
 #pragma omp parallel num_threads(forceThreads) \
@@ -49,9 +106,10 @@ void DemSystem::Impl::computeForces(double kick) {
     }
     // (implicit barrier: the contacts read every pose)
 #pragma omp for schedule(static, 32) nowait
-    for (std::int64_t pi = 0; pi < np; ++pi) {
-      Pair& p = pairs[static_cast<std::size_t>(pi)];
-      PairOut& po = pairOut[static_cast<std::size_t>(pi)];
+    for (std::int64_t k = 0; k < np; ++k) {
+      const std::size_t pi = pairAt(k);
+      Pair& p = pairs[pi];
+      PairOut& po = pairOut[pi];
       po.evaluated = false;                      // the contact is read only when evaluated
       if (!awake[p.i] && !awake[p.j]) continue;  // two sleepers keep their spring
       const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
@@ -75,12 +133,13 @@ void DemSystem::Impl::computeForces(double kick) {
       p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
     }
 #pragma omp for schedule(dynamic, 16)
-    for (std::int64_t si = 0; si < sn; ++si)
-      wallForces(static_cast<std::size_t>(si), zw, vw, sc.wall, wallEvals, wallSearches);
+    for (std::int64_t k = 0; k < nw; ++k)
+      wallForces(liveAll ? static_cast<std::size_t>(k) : liveList[static_cast<std::size_t>(k)], zw,
+                 vw, sc.wall, wallEvals, wallSearches);
   }
   counters.nodeEvaluations += evalsTotal + wallEvals;
   counters.nodeListRebuilds += searches + wallSearches;
-  counters.pairChecks += pairs.size();
+  counters.pairChecks += static_cast<std::uint64_t>(np);
   counters.pairEvaluations += evaluated;
 
   // Diagnostics in pair order (cheap, serial).
@@ -90,8 +149,8 @@ void DemSystem::Impl::computeForces(double kick) {
   contactCount = 0;
   interpenetrations = 0;
   maxWallFraction = 0;
-  for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
-    const PairOut& po = pairOut[pi];
+  for (std::int64_t k = 0; k < np; ++k) {
+    const PairOut& po = pairOut[pairAt(k)];
     if (!po.evaluated || !po.c.touching) continue;
     elastic += po.c.elastic;
     maxDepth = std::max(maxDepth, po.c.maxDepth);
@@ -101,6 +160,7 @@ void DemSystem::Impl::computeForces(double kick) {
     if (po.c.flipped || po.c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
   }
   for (std::size_t i = 0; i < n; ++i) {
+    if (!liveMark[i]) continue;  // a skipped sleeper's wall terms are zero
     elastic += wallElastic[i];
     maxDepth = std::max(maxDepth, wallDepth[i]);
   }
@@ -108,6 +168,7 @@ void DemSystem::Impl::computeForces(double kick) {
 #pragma omp parallel for num_threads(sumThreads) schedule(static, 32)
   for (std::int64_t si = 0; si < sn; ++si) {
     const auto i = static_cast<std::size_t>(si);
+    if (!liveMark[i]) continue;  // its weight alone, already in F[i] (see selectLive)
     Vec3 f(0, 0, -opt.gravityMmPerS2 * tmpl[tid[i]].massG), tq = Vec3::Zero();
     for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
       const std::size_t pi = adj[a];

@@ -36,7 +36,7 @@ std::size_t DemSystem::Impl::sleepUpdate() {
   const std::uint32_t need =
       static_cast<std::uint32_t>(std::max(1.0, std::ceil(opt.sleepTimeS / dt)));
   const int nt = particleThreads();
-  std::vector<std::uint8_t> fast(n, 0);
+  fast.assign(n, 0);
 #pragma omp parallel num_threads(nt)
   {
 #pragma omp for schedule(static, 32)
@@ -52,6 +52,9 @@ std::size_t DemSystem::Impl::sleepUpdate() {
 #pragma omp for schedule(static, 32)
     for (std::int64_t si = 0; si < sn; ++si) {
       const auto i = static_cast<std::size_t>(si);
+      // Not live in this step's forces: asleep with every neighbour asleep, so nothing here
+      // can wake it (selectLive in forces.cpp).
+      if (!(liveMark[i] & 1)) continue;
       bool neighbourFast = false;
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1] && !neighbourFast; ++a) {
         const auto& p = pairs[adj[a]];

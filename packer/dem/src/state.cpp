@@ -308,6 +308,8 @@ void DemSystem::restoreState(const json& j) {
     }
     // The per-particle pair index (CSR), as rebuildNeighbours() makes it.
     s.pairOut.assign(s.pairs.size(), Impl::PairOut{});
+    s.pairOutStale = false;
+    s.liveAllNext = true;  // the first evaluation visits all, as before the save
     s.adjStart.assign(n + 1, 0);
     for (const auto& p : s.pairs) {
       ++s.adjStart[p.i + 1];

@@ -175,6 +175,17 @@ struct DemSystem::Impl {
     bool evaluated = false;
   };
   std::vector<PairOut> pairOut;
+  // The live set of a force evaluation (forces.cpp): once most of a bed sleeps, only awake
+  // particles, the sleepers touching them and their pairs are visited, so a step costs what
+  // moves, not the whole bed. liveMark bit 0: live in this evaluation; bit 1: in the last.
+  bool liveAll = true;        // this evaluation visits everything (most are awake)
+  bool liveAllNext = true;    // the next one must (a restored state)
+  bool pairOutStale = false;  // pairOut may hold evaluated pairs outside livePairs
+  std::vector<std::uint8_t> liveMark;
+  std::vector<std::uint32_t> livePairs;  // pair indices with an awake end, ascending
+  std::vector<std::uint32_t> liveList;   // particles with a liveMark bit, ascending
+  std::vector<std::uint8_t> fast;        // sleeping.cpp scratch: moving fast this step
+  void selectLive();
   bool forcesValid = false;
   bool needRebuild = true;
   double skin = 0;

@@ -164,6 +164,10 @@ struct DemOptions {
   /// particle); tuning only. Measured: 98 cylinders at 0.9 mm (~500 pairs x ~150 nodes) ran
   /// 3x slower on 2 threads than on 1, the paper's bed at 0.27 mm (1894 nodes) 1.8x faster.
   double parallelMinNodeWork = 1e5;
+  /// Below this share of particles awake, a step visits only the awake ones, the sleepers
+  /// touching them and their pairs; tuning only: the bits are those of a full pass
+  /// (docs/dem.md, "Scale"). 0 = always the full pass.
+  double liveSetAwakeFraction = 0.25;
 };
 
 /// Precomputed body-frame (principal axes) data of one particle shape at one voxel size.
@@ -384,6 +388,7 @@ struct DemResult {
   double timeStepS = 0;                    ///< time step used
   double contactTimeS = 0;                 ///< reference contact duration
   double stiffnessNPerMm3 = 0;             ///< face stiffness used
+  double loadHeightMm = 0;                 ///< bed depth whose weight set the auto stiffness
   double simulatedTimeS = 0;               ///< simulated time
   double wallTimeS = 0;                    ///< elapsed wall-clock time
   double settleTimeS = 0;                  ///< simulated time when the pour settled
