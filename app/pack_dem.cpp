@@ -435,6 +435,7 @@ class DemMode final : public PackMode {
         {"pair_evaluations", r.counters.pairEvaluations},
         {"node_evaluations", r.counters.nodeEvaluations},
         {"neighbour_rebuilds", r.counters.neighbourRebuilds},
+        {"neighbour_rebuilds_partial", r.counters.partialRebuilds},
         {"messages", r.messages}};
     prov["dem"] = dem;
     prov["status"] = packer::dem::statusName(r.status);

@@ -64,8 +64,9 @@ TEST(DemPack, IdenticalForAnyThreadCount) {
 }
 
 // Once most of a bed sleeps a step visits only the live set (the awake particles, the
-// sleepers touching them, their pairs); that must be the full pass's bed to the last bit,
-// through a pour, its sleepers and the taps that wake them all, on one and two threads.
+// sleepers touching them, their pairs) and a rebuild searches only the particles that moved;
+// that must be the full pass's bed to the last bit, through a pour, its sleepers and the
+// taps that wake them all, on one and two threads.
 TEST(DemPack, LiveSetStepsGiveTheFullPassBed) {
   DemScene s = smallScene(30, 9);
   s.shapes = {std::make_shared<TestCylinder>(3.0, 2.1)};
@@ -85,8 +86,12 @@ TEST(DemPack, LiveSetStepsGiveTheFullPassBed) {
   }
   ASSERT_EQ(full.status, packer::dem::DemStatus::kSettled);
   ASSERT_EQ(full.particles.size(), 30u);
-  // The live runs did skip: fewer pairs checked, the same pairs evaluated.
+  // The live runs did skip: fewer pairs checked, the same pairs evaluated, and most cell
+  // lists rebuilt for the moved particles alone (a missed pair would be a missed contact).
   EXPECT_LT(live[0].counters.pairChecks, full.counters.pairChecks * 9 / 10);
+  EXPECT_EQ(full.counters.partialRebuilds, 0u);
+  EXPECT_GT(live[0].counters.partialRebuilds, live[0].counters.neighbourRebuilds / 2);
+  EXPECT_EQ(live[0].counters.neighbourRebuilds, full.counters.neighbourRebuilds);
   EXPECT_EQ(live[0].counters.pairEvaluations, full.counters.pairEvaluations);
   EXPECT_EQ(live[0].counters.steps, full.counters.steps);
   for (const DemResult& r : live) {
@@ -94,6 +99,27 @@ TEST(DemPack, LiveSetStepsGiveTheFullPassBed) {
     EXPECT_EQ(r.simulatedTimeS, full.simulatedTimeS);
     expectIdenticalBeds(full, r);
   }
+}
+
+// A long pour of spheres onto its own sleeping bed: most rebuilds search the moved
+// particles alone, against sleepers of lower and higher index; a missed pair would be a
+// missed contact and another bed.
+TEST(DemPack, PartialNeighbourRebuildsGiveTheFullSearchBed) {
+  DemScene s = smallScene(120, 4);
+  s.shapes = {std::make_shared<TestFastSphere>(3.0)};
+  DemOptions o;
+  o.friction = 0.3;
+  o.maxTimeS = 2.5;
+  o.rainHeightDiameters = 1.5;  // small batches land on sleepers
+  DemResult full, live;
+  o.liveSetAwakeFraction = 0;
+  full = runDem(s, o, nullProgress());
+  o.liveSetAwakeFraction = 2;
+  live = runDem(s, o, nullProgress());
+  ASSERT_EQ(full.particles.size(), 120u);
+  EXPECT_GT(live.counters.partialRebuilds, live.counters.neighbourRebuilds / 2);
+  EXPECT_EQ(live.counters.pairEvaluations, full.counters.pairEvaluations);
+  expectIdenticalBeds(full, live);
 }
 
 // The auto stiffness carries the weight of a bed only down to three Janssen lengths

@@ -3,16 +3,22 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <iterator>
 
 #include "system_impl.hpp"
 
 namespace voxpack::packer::dem {
 
+// When few particles moved since the last build (most of the bed asleep), only they are
+// searched: a pair of two particles still where the last build saw them is in or out of
+// reach exactly as it was then, so it is kept or left out as it was, and the moved ones'
+// pairs are found in the cell list updated for them alone. Distances and reaches are computed
+// as the full search computes them (x[lower] - x[higher], r[lower] + r[higher] + skin), so
+// both give the same list to the bit.
 void DemSystem::Impl::rebuildNeighbours() {
   ++counters.neighbourRebuilds;
   const std::size_t n = x.size();
   const double cell = 2 * rMax() + skin;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(n);
   // A non-finite or far-away centre must never reach the integer key (undefined
   // behaviour): such a state is a blow-up, flagged here and stopped by the integrator.
   constexpr double kKeyLimit = (1 << 20) - 2;
@@ -24,50 +30,91 @@ void DemSystem::Impl::rebuildNeighbours() {
     }
     return c;
   };
-  for (std::size_t i = 0; i < n && !diverged; ++i)
-    if (!x[i].allFinite() || x[i].cwiseAbs().maxCoeff() > 0.5 * kKeyLimit * cell) diverged = true;
   auto pack = [](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
     return (static_cast<std::uint64_t>(cz + (1 << 20)) << 42) |
            (static_cast<std::uint64_t>(cy + (1 << 20)) << 21) |
            static_cast<std::uint64_t>(cx + (1 << 20));
   };
-  for (std::size_t i = 0; i < n; ++i) {
+  auto keyOf = [&](std::size_t i) {
     const auto c = cellIndex(x[i]);
-    keys[i] = {pack(c[0], c[1], c[2]), static_cast<std::uint32_t>(i)};
+    return std::make_pair(pack(c[0], c[1], c[2]), static_cast<std::uint32_t>(i));
+  };
+  auto tooFar = [&](std::size_t i) {
+    return !x[i].allFinite() || x[i].cwiseAbs().maxCoeff() > 0.5 * kKeyLimit * cell;
+  };
+  const bool partial =
+      !movedAll && cellKeys.size() == n && movedMark.size() == n &&
+      static_cast<double>(movedList.size()) < opt.liveSetAwakeFraction * static_cast<double>(n);
+  std::vector<std::uint32_t> searchers;  // particles whose pairs are searched
+  std::vector<std::uint64_t> found;      // pairs as (i << 32 | j), i < j
+  if (partial) {
+    ++counters.partialRebuilds;
+    searchers = movedList;
+    std::sort(searchers.begin(), searchers.end());
+    for (const std::uint32_t i : searchers)
+      if (tooFar(i)) diverged = true;
+    // The cell list: the unmoved particles' keys as they were, the moved ones' anew.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> movedKeys;
+    movedKeys.reserve(searchers.size());
+    for (const std::uint32_t i : searchers) movedKeys.push_back(keyOf(i));
+    std::sort(movedKeys.begin(), movedKeys.end());
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> merged;
+    merged.reserve(n);
+    auto unmoved = cellKeys;
+    unmoved.erase(std::remove_if(unmoved.begin(), unmoved.end(),
+                                 [&](const auto& k) { return movedMark[k.second] != 0; }),
+                  unmoved.end());
+    std::merge(unmoved.begin(), unmoved.end(), movedKeys.begin(), movedKeys.end(),
+               std::back_inserter(merged));
+    cellKeys.swap(merged);
+    // The unmoved pairs as they were (ascending).
+    for (const Pair& p : pairs)
+      if (!movedMark[p.i] && !movedMark[p.j])
+        found.push_back(static_cast<std::uint64_t>(p.i) << 32 | p.j);
+  } else {
+    for (std::size_t i = 0; i < n && !diverged; ++i)
+      if (tooFar(i)) diverged = true;
+    cellKeys.resize(n);
+    for (std::size_t i = 0; i < n; ++i) cellKeys[i] = keyOf(i);
+    std::sort(cellKeys.begin(), cellKeys.end());
+    searchers.resize(n);
+    for (std::size_t i = 0; i < n; ++i) searchers[i] = static_cast<std::uint32_t>(i);
   }
-  std::sort(keys.begin(), keys.end());
-  // Pairs found in parallel over i as (i << 32 | j); the sort below makes the list the
-  // same for any thread count. The key keeps x in its low bits, so the three cells x-1..x+1
-  // of one (y, z) row are one key range: nine searches a particle, not 27.
-  std::vector<std::uint64_t> found;
-  const int nt = particleThreads();
+  // Pairs found in parallel over the searchers; the sort below makes the list the same for
+  // any thread count. The key keeps x in its low bits, so the three cells x-1..x+1 of one
+  // (y, z) row are one key range: nine searches a particle, not 27. A full search records a
+  // pair from its lower index; a partial one from a moved particle, once for two moved ones.
+  const std::size_t kept = found.size();
+  const int nt = partial ? 1 : particleThreads();
+  const std::int64_t ns = static_cast<std::int64_t>(searchers.size());
 #pragma omp parallel num_threads(nt)
   {
     std::vector<std::uint64_t> local;
 #pragma omp for schedule(static)
-    for (std::int64_t si = 0; si < static_cast<std::int64_t>(n); ++si) {
-      const std::size_t i = static_cast<std::size_t>(si);
+    for (std::int64_t k = 0; k < ns; ++k) {
+      const std::uint32_t i = searchers[static_cast<std::size_t>(k)];
       const auto c = cellIndex(x[i]);
-      const double ri = tmpl[tid[i]].radiusMm;
       for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy) {
           const std::uint64_t first = pack(c[0] - 1, c[1] + dy, c[2] + dz);
           const std::uint64_t last = pack(c[0] + 1, c[1] + dy, c[2] + dz);
-          auto it =
-              std::lower_bound(keys.begin(), keys.end(), std::make_pair(first, std::uint32_t{0}));
-          for (; it != keys.end() && it->first <= last; ++it) {
+          auto it = std::lower_bound(cellKeys.begin(), cellKeys.end(),
+                                     std::make_pair(first, std::uint32_t{0}));
+          for (; it != cellKeys.end() && it->first <= last; ++it) {
             const std::uint32_t j = it->second;
-            if (j <= i) continue;
-            const double reach = ri + tmpl[tid[j]].radiusMm + skin;
-            if ((x[i] - x[j]).squaredNorm() < reach * reach)
-              local.push_back(static_cast<std::uint64_t>(i) << 32 | j);
+            if (j == i || (j < i && (!partial || movedMark[j]))) continue;
+            const std::uint32_t lo = std::min(i, j), hi = std::max(i, j);
+            const double reach = tmpl[tid[lo]].radiusMm + tmpl[tid[hi]].radiusMm + skin;
+            if ((x[lo] - x[hi]).squaredNorm() < reach * reach)
+              local.push_back(static_cast<std::uint64_t>(lo) << 32 | hi);
           }
         }
     }
 #pragma omp critical
     found.insert(found.end(), local.begin(), local.end());
   }
-  std::sort(found.begin(), found.end());
+  std::sort(found.begin() + static_cast<std::ptrdiff_t>(kept), found.end());
+  std::inplace_merge(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(kept), found.end());
   // Carry the tangential springs and node lists of surviving pairs over (both sorted).
   std::vector<Pair> fresh(found.size());
   std::size_t o = 0;
@@ -99,6 +146,9 @@ void DemSystem::Impl::rebuildNeighbours() {
     adj[fill[pairs[pi].j]++] = static_cast<std::uint32_t>(pi);
   }
   xBuild = x;
+  for (const std::uint32_t i : movedList) movedMark[i] = 0;
+  movedList.clear();
+  movedAll = false;
   needRebuild = false;
 }
 

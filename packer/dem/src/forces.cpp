@@ -18,14 +18,25 @@ namespace voxpack::packer::dem {
 // sleepers live in the last evaluation are visited once more, which resets their sums to
 // that weight, so every skipped particle holds exactly what a full pass would give it and
 // the bits are those of a full pass.
+void DemSystem::Impl::listAwake() {
+  awakeList.clear();
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (awake[i]) awakeList.push_back(static_cast<std::uint32_t>(i));
+  awakeListValid = true;
+}
+
 void DemSystem::Impl::selectLive() {
   const std::size_t n = x.size();
-  liveMark.resize(n, 0);
-  std::size_t awakeCount = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    liveMark[i] = static_cast<std::uint8_t>((liveMark[i] & 1) << 1);
-    awakeCount += awake[i] ? 1 : 0;
+  // Last evaluation's marks move to bit 1 (only its live list holds marks, unless it was a
+  // full pass or particles were added since).
+  if (liveAll || liveMark.size() != n) {
+    liveMark.resize(n, 0);
+    for (auto& m : liveMark) m = static_cast<std::uint8_t>((m & 1) << 1);
+  } else {
+    for (const std::uint32_t i : liveList)
+      liveMark[i] = static_cast<std::uint8_t>((liveMark[i] & 1) << 1);
   }
+  if (!awakeListValid) listAwake();
   // Evaluated flags of the last evaluation's pairs go back to false (a full pass resets
   // them all in its pair loop; a rebuild starts from all false).
   if (pairOutStale && liveAll) {
@@ -33,29 +44,45 @@ void DemSystem::Impl::selectLive() {
   } else if (pairOutStale) {
     for (const std::uint32_t pi : livePairs) pairOut[pi].evaluated = false;
   }
+  const bool wasAll = liveAll;
+  std::vector<std::uint32_t> lastLive;
+  lastLive.swap(liveList);
   livePairs.clear();
   pairOutStale = true;
-  liveAll = liveAllNext ||
-            static_cast<double>(awakeCount) >= opt.liveSetAwakeFraction * static_cast<double>(n);
+  liveAll = liveAllNext || static_cast<double>(awakeList.size()) >=
+                               opt.liveSetAwakeFraction * static_cast<double>(n);
   liveAllNext = false;
   if (liveAll) {
     std::fill(liveMark.begin(), liveMark.end(), std::uint8_t{3});
     return;
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!awake[i]) continue;
+  for (const std::uint32_t i : awakeList) {
     liveMark[i] |= 1;
     for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
       const Pair& p = pairs[adj[a]];
-      const std::size_t j = p.i == i ? p.j : p.i;
+      const std::uint32_t j = p.i == i ? p.j : p.i;
       liveMark[j] |= 1;
       if (!awake[j] || i < j) livePairs.push_back(adj[a]);
     }
   }
   std::sort(livePairs.begin(), livePairs.end());
-  liveList.clear();
-  for (std::size_t i = 0; i < n; ++i)
-    if (liveMark[i]) liveList.push_back(static_cast<std::uint32_t>(i));
+  // The live list: this evaluation's (bit 0) and the last one's (bit 1), ascending.
+  if (wasAll) {
+    for (std::size_t i = 0; i < n; ++i)
+      if (liveMark[i]) liveList.push_back(static_cast<std::uint32_t>(i));
+    return;
+  }
+  for (const std::uint32_t i : awakeList) {
+    liveList.push_back(i);
+    for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
+      const Pair& p = pairs[adj[a]];
+      liveList.push_back(p.i == i ? p.j : p.i);
+    }
+  }
+  for (const std::uint32_t i : lastLive)
+    if (liveMark[i] & 2) liveList.push_back(i);
+  std::sort(liveList.begin(), liveList.end());
+  liveList.erase(std::unique(liveList.begin(), liveList.end()), liveList.end());
 }
 
 void DemSystem::Impl::computeForces(double kick) {
@@ -78,6 +105,11 @@ void DemSystem::Impl::computeForces(double kick) {
   };
   // The particles whose walls and sums are visited: all, or the live ones.
   const std::int64_t nw = liveAll ? sn : static_cast<std::int64_t>(liveList.size());
+  auto liveAt = [&](std::int64_t k) {
+    return liveAll ? static_cast<std::size_t>(k) : liveList[static_cast<std::size_t>(k)];
+  };
+  // The particles whose poses change: all (the sleepers skip), or the awake ones.
+  const std::int64_t na = liveAll ? sn : static_cast<std::int64_t>(awakeList.size());
   const double visited = static_cast<double>(nw);
   // Small systems run serial: a parallel region costs more than it saves there, and far
   // more on an oversubscribed machine. Poses, pairs and walls share one region. Poses and
@@ -95,8 +127,9 @@ void DemSystem::Impl::computeForces(double kick) {
   {
     Scratch& sc = scratch[static_cast<std::size_t>(omp_get_thread_num())];
 #pragma omp for schedule(static, 32)
-    for (std::int64_t si = 0; si < sn; ++si) {
-      const auto i = static_cast<std::size_t>(si);
+    for (std::int64_t k = 0; k < na; ++k) {
+      const std::size_t i =
+          liveAll ? static_cast<std::size_t>(k) : awakeList[static_cast<std::size_t>(k)];
       // A sleeping particle keeps its pose and has no spin (sleepUpdate zeroed both rates),
       // so its rotation and rate stay as they were when it fell asleep (particles are added
       // awake, and a restored state fills both for all).
@@ -134,8 +167,7 @@ void DemSystem::Impl::computeForces(double kick) {
     }
 #pragma omp for schedule(dynamic, 16)
     for (std::int64_t k = 0; k < nw; ++k)
-      wallForces(liveAll ? static_cast<std::size_t>(k) : liveList[static_cast<std::size_t>(k)], zw,
-                 vw, sc.wall, wallEvals, wallSearches);
+      wallForces(liveAt(k), zw, vw, sc.wall, wallEvals, wallSearches);
   }
   counters.nodeEvaluations += evalsTotal + wallEvals;
   counters.nodeListRebuilds += searches + wallSearches;
@@ -159,16 +191,15 @@ void DemSystem::Impl::computeForces(double kick) {
     maxWallFraction = std::max(maxWallFraction, po.c.wallFraction);
     if (po.c.flipped || po.c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!liveMark[i]) continue;  // a skipped sleeper's wall terms are zero
+  for (std::int64_t k = 0; k < nw; ++k) {  // a skipped sleeper's wall terms are zero
+    const std::size_t i = liveAt(k);
     elastic += wallElastic[i];
     maxDepth = std::max(maxDepth, wallDepth[i]);
   }
   // Each particle: gravity, its pair contacts in pair order, then its walls; then the kick.
 #pragma omp parallel for num_threads(sumThreads) schedule(static, 32)
-  for (std::int64_t si = 0; si < sn; ++si) {
-    const auto i = static_cast<std::size_t>(si);
-    if (!liveMark[i]) continue;  // its weight alone, already in F[i] (see selectLive)
+  for (std::int64_t k = 0; k < nw; ++k) {
+    const std::size_t i = liveAt(k);  // a skipped one holds its weight alone (selectLive)
     Vec3 f(0, 0, -opt.gravityMmPerS2 * tmpl[tid[i]].massG), tq = Vec3::Zero();
     for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
       const std::size_t pi = adj[a];

@@ -20,9 +20,12 @@ void quatStep(const Quat& q, const Vec3& theta, Quat& out) {
 
 // The first half kick and the drift of every awake particle, with the blow-up guard and the
 // largest move since the neighbour build (for the rebuild test) in the same pass: one
-// parallel region a step instead of four passes. Returns that largest squared move.
+// parallel region a step instead of four passes. Returns that largest squared move. With the
+// live set (forces.cpp) it visits the awake list only, and takes the largest move over the
+// particles integrated since the build: every other one is still where the build saw it.
 double DemSystem::Impl::kickDrift(double h) {
-  const std::int64_t n = static_cast<std::int64_t>(x.size());
+  const bool listed = awakeListValid && !liveAll;
+  const std::int64_t n = static_cast<std::int64_t>(listed ? awakeList.size() : x.size());
   const int nt = particleThreads();
   const double bound2 = speedBound * speedBound;
   double maxMove2 = 0;
@@ -31,8 +34,9 @@ double DemSystem::Impl::kickDrift(double h) {
                                                                         : maxMove2) \
     reduction(|                                                                     \
               : blownUp)
-  for (std::int64_t si = 0; si < n; ++si) {
-    const std::size_t i = static_cast<std::size_t>(si);
+  for (std::int64_t k = 0; k < n; ++k) {
+    const std::size_t i =
+        listed ? awakeList[static_cast<std::size_t>(k)] : static_cast<std::size_t>(k);
     if (awake[i]) {
       v[i] += (h / tmpl[tid[i]].massG) * F[i];
       L[i] += h * T[i];
@@ -55,6 +59,21 @@ double DemSystem::Impl::kickDrift(double h) {
     maxMove2 = std::max(maxMove2, (x[i] - xBuild[i]).squaredNorm());
   }
   if (blownUp) diverged = true;
+  if (!listed) {
+    movedAll = true;
+    return maxMove2;
+  }
+  movedMark.resize(x.size(), 0);
+  for (const std::uint32_t i : awakeList)
+    if (!movedMark[i]) {
+      movedMark[i] = 1;
+      movedList.push_back(i);
+    }
+  const std::size_t m = movedAll ? x.size() : movedList.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::size_t i = movedAll ? k : movedList[k];
+    maxMove2 = std::max(maxMove2, (x[i] - xBuild[i]).squaredNorm());
+  }
   return maxMove2;
 }
 

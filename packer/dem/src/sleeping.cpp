@@ -29,6 +29,7 @@ std::size_t DemSystem::Impl::sleepUpdate() {
       awake[i] = 1;
       restartWindow(i);
     }
+    awakeListValid = false;
     return n;
   }
   const double vSleep = opt.settleVelocity * std::sqrt(opt.gravityMmPerS2 * dMin());
@@ -36,12 +37,23 @@ std::size_t DemSystem::Impl::sleepUpdate() {
   const std::uint32_t need =
       static_cast<std::uint32_t>(std::max(1.0, std::ceil(opt.sleepTimeS / dt)));
   const int nt = particleThreads();
-  fast.assign(n, 0);
+  // With the live set (forces.cpp) only its particles are visited: a sleeper outside it has
+  // every neighbour asleep, so nothing here can wake it.
+  const bool listed = !liveAll;
+  const std::int64_t na = listed ? static_cast<std::int64_t>(awakeList.size()) : sn;
+  const std::int64_t nl = listed ? static_cast<std::int64_t>(liveList.size()) : sn;
+  auto awakeAt = [&](std::int64_t k) {
+    return listed ? awakeList[static_cast<std::size_t>(k)] : static_cast<std::size_t>(k);
+  };
+  auto liveAt = [&](std::int64_t k) {
+    return listed ? liveList[static_cast<std::size_t>(k)] : static_cast<std::size_t>(k);
+  };
+  fast.resize(n, 0);  // all zero between calls
 #pragma omp parallel num_threads(nt)
   {
 #pragma omp for schedule(static, 32)
-    for (std::int64_t si = 0; si < sn; ++si) {
-      const auto i = static_cast<std::size_t>(si);
+    for (std::int64_t k = 0; k < na; ++k) {
+      const std::size_t i = awakeAt(k);
       if (!awake[i]) continue;
       const ParticleTemplate& tp = tmpl[tid[i]];
       const double spin = worldRate(rot[i], L[i], tp.inertiaG).norm();  // rot: this step's pose
@@ -50,11 +62,9 @@ std::size_t DemSystem::Impl::sleepUpdate() {
     }
     // Each particle looks at its own neighbours: woken (2) when one of them moves fast.
 #pragma omp for schedule(static, 32)
-    for (std::int64_t si = 0; si < sn; ++si) {
-      const auto i = static_cast<std::size_t>(si);
-      // Not live in this step's forces: asleep with every neighbour asleep, so nothing here
-      // can wake it (selectLive in forces.cpp).
-      if (!(liveMark[i] & 1)) continue;
+    for (std::int64_t k = 0; k < nl; ++k) {
+      const std::size_t i = liveAt(k);
+      if (!(liveMark[i] & 1)) continue;  // live in the last evaluation only: all asleep
       bool neighbourFast = false;
       for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1] && !neighbourFast; ++a) {
         const auto& p = pairs[adj[a]];
@@ -82,11 +92,17 @@ std::size_t DemSystem::Impl::sleepUpdate() {
       }
     }
   }
+  for (std::int64_t k = 0; k < na; ++k) fast[awakeAt(k)] = 0;
+  // The awake list for the next step, from the only particles whose flags could change.
+  if (listed) awakeList.clear();
   std::size_t integrated = 0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::int64_t k = 0; k < nl; ++k) {
+    const std::size_t i = liveAt(k);
     if (awake[i] == 2) awake[i] = 1;
     integrated += awake[i];
+    if (listed && awake[i]) awakeList.push_back(static_cast<std::uint32_t>(i));
   }
+  awakeListValid = listed;
   return integrated;
 }
 

@@ -198,7 +198,7 @@ json DemSystem::saveState() const {
           {"work_total", s.workTotal},
           {"counters",
            {c.steps, c.particleSteps, c.integratedParticleSteps, c.pairChecks, c.pairEvaluations,
-            c.nodeEvaluations, c.neighbourRebuilds, c.nodeListRebuilds}},
+            c.nodeEvaluations, c.neighbourRebuilds, c.nodeListRebuilds, c.partialRebuilds}},
           {"template", tid},
           {"awake", awake},
           {"slow_steps", slow},
@@ -310,6 +310,10 @@ void DemSystem::restoreState(const json& j) {
     s.pairOut.assign(s.pairs.size(), Impl::PairOut{});
     s.pairOutStale = false;
     s.liveAllNext = true;  // the first evaluation visits all, as before the save
+    s.awakeListValid = false;
+    s.movedMark.assign(n, 0);
+    s.movedList.clear();
+    s.movedAll = true;
     s.adjStart.assign(n + 1, 0);
     for (const auto& p : s.pairs) {
       ++s.adjStart[p.i + 1];
@@ -335,8 +339,10 @@ void DemSystem::restoreState(const json& j) {
     s.contactCount = j.at("contact_count").get<std::uint64_t>();
     s.workTotal = j.at("work_total").get<double>();
     const auto c = j.at("counters").get<std::vector<std::uint64_t>>();
-    if (c.size() != 8) throw FormatError("checkpoint: bad DEM counters");
-    s.counters = DemCounters{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]};
+    // Eight counters before the partial rebuilds were counted.
+    if (c.size() != 8 && c.size() != 9) throw FormatError("checkpoint: bad DEM counters");
+    s.counters =
+        DemCounters{c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c.size() > 8 ? c[8] : 0};
     s.diverged = false;
     // The per-particle rotation cache is refreshed by every force evaluation; size it.
     s.rot.assign(n, Eigen::Matrix3d::Identity());

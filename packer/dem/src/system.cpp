@@ -219,6 +219,7 @@ std::size_t DemSystem::addParticle(std::size_t templateIndex, const Vec3& positi
   s.xBuild.push_back(positionMm);
   s.needRebuild = true;
   s.forcesValid = false;
+  s.awakeListValid = false;
   return s.x.size() - 1;
 }
 
@@ -293,12 +294,17 @@ void DemSystem::measureAllContacts() {
   if (s.diverged || !s.resolved || s.x.empty()) return;
   const std::vector<std::uint8_t> keep = s.awake;
   std::fill(s.awake.begin(), s.awake.end(), 1);
+  s.awakeListValid = false;
   if (s.needRebuild) s.rebuildNeighbours();
   s.computeForces(0);
   s.awake = keep;
+  // Every particle's sum now holds its contacts: the next evaluation recomputes them all.
+  s.awakeListValid = false;
+  s.liveAllNext = true;
 }
 void DemSystem::wakeAll() {
   for (auto& a : impl_->awake) a = 1;
+  impl_->awakeListValid = false;
   for (std::size_t i = 0; i < impl_->x.size(); ++i) impl_->restartWindow(i);
 }
 

@@ -185,7 +185,19 @@ struct DemSystem::Impl {
   std::vector<std::uint32_t> livePairs;  // pair indices with an awake end, ascending
   std::vector<std::uint32_t> liveList;   // particles with a liveMark bit, ascending
   std::vector<std::uint8_t> fast;        // sleeping.cpp scratch: moving fast this step
+  // The awake particles, ascending; kept by sleepUpdate while the live set is in use, so no
+  // per-step pass costs the whole bed. Invalid after anything else sets awake flags.
+  std::vector<std::uint32_t> awakeList;
+  bool awakeListValid = false;
+  // Particles integrated since the last neighbour build (the only ones whose centre can
+  // differ from xBuild); movedAll when that is not known (a restored state, a full pass).
+  std::vector<std::uint32_t> movedList;
+  std::vector<std::uint8_t> movedMark;
+  bool movedAll = true;
+  // The last build's cell list (cell key, particle), ascending: a partial rebuild updates it.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> cellKeys;
   void selectLive();
+  void listAwake();  // awakeList from the flags (a pass over all particles)
   bool forcesValid = false;
   bool needRebuild = true;
   double skin = 0;

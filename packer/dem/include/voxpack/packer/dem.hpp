@@ -165,8 +165,9 @@ struct DemOptions {
   /// 3x slower on 2 threads than on 1, the paper's bed at 0.27 mm (1894 nodes) 1.8x faster.
   double parallelMinNodeWork = 1e5;
   /// Below this share of particles awake, a step visits only the awake ones, the sleepers
-  /// touching them and their pairs; tuning only: the bits are those of a full pass
-  /// (docs/dem.md, "Scale"). 0 = always the full pass.
+  /// touching them and their pairs, and below this share moved since the last neighbour
+  /// build, a rebuild searches the moved ones alone; tuning only: the bits are those of a
+  /// full pass (docs/dem.md, "Sleeping"). 0 = always the full pass.
   double liveSetAwakeFraction = 0.25;
 };
 
@@ -230,6 +231,7 @@ struct DemCounters {
   std::uint64_t nodeEvaluations = 0;          ///< signed-distance evaluations at nodes
   std::uint64_t neighbourRebuilds = 0;        ///< cell-list rebuilds
   std::uint64_t nodeListRebuilds = 0;         ///< contact node-list searches (pairs + walls)
+  std::uint64_t partialRebuilds = 0;          ///< of the cell-list rebuilds, moved ones only
 };
 
 /// A pair overlap deeper than this fraction of the thinnest wall of the body it enters is an
