@@ -18,6 +18,23 @@ namespace voxpack::packer::dem {
 // sleepers live in the last evaluation are visited once more, which resets their sums to
 // that weight, so every skipped particle holds exactly what a full pass would give it and
 // the bits are those of a full pass.
+namespace {
+
+// Sorts a list of distinct indices below n that `marked` picks out: by a sort when it is
+// short against n, by a scan of the marks otherwise (the same list either way).
+template <class Marked>
+void ascending(std::vector<std::uint32_t>& list, std::size_t n, Marked marked) {
+  if (list.size() * 64 < n) {
+    std::sort(list.begin(), list.end());
+    return;
+  }
+  list.clear();
+  for (std::size_t i = 0; i < n; ++i)
+    if (marked(i)) list.push_back(static_cast<std::uint32_t>(i));
+}
+
+}  // namespace
+
 void DemSystem::Impl::listAwake() {
   awakeList.clear();
   for (std::size_t i = 0; i < x.size(); ++i)
@@ -56,33 +73,35 @@ void DemSystem::Impl::selectLive() {
     std::fill(liveMark.begin(), liveMark.end(), std::uint8_t{3});
     return;
   }
-  for (const std::uint32_t i : awakeList) {
+  // Each live particle and pair once, in the order met; then ascending, by a sort when the
+  // list is short against the whole (a sort of a few thousand costs ~50 us a step), by a scan
+  // of the marks otherwise.
+  auto live = [&](std::uint32_t i) {
+    if (!(liveMark[i] & 1)) liveList.push_back(i);
     liveMark[i] |= 1;
+  };
+  for (const std::uint32_t i : awakeList) {
+    live(i);
     for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
       const Pair& p = pairs[adj[a]];
       const std::uint32_t j = p.i == i ? p.j : p.i;
-      liveMark[j] |= 1;
+      live(j);
       if (!awake[j] || i < j) livePairs.push_back(adj[a]);
     }
   }
-  std::sort(livePairs.begin(), livePairs.end());
-  // The live list: this evaluation's (bit 0) and the last one's (bit 1), ascending.
-  if (wasAll) {
+  if (wasAll) {  // the last evaluation's list is everyone: the marks say who
+    liveList.clear();
     for (std::size_t i = 0; i < n; ++i)
       if (liveMark[i]) liveList.push_back(static_cast<std::uint32_t>(i));
-    return;
+  } else {
+    for (const std::uint32_t i : lastLive)
+      if (liveMark[i] == 2) liveList.push_back(i);  // the last evaluation's alone
+    ascending(liveList, n, [&](std::size_t i) { return liveMark[i] != 0; });
   }
-  for (const std::uint32_t i : awakeList) {
-    liveList.push_back(i);
-    for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
-      const Pair& p = pairs[adj[a]];
-      liveList.push_back(p.i == i ? p.j : p.i);
-    }
-  }
-  for (const std::uint32_t i : lastLive)
-    if (liveMark[i] & 2) liveList.push_back(i);
-  std::sort(liveList.begin(), liveList.end());
-  liveList.erase(std::unique(liveList.begin(), liveList.end()), liveList.end());
+  pairMark.resize(pairs.size(), 0);
+  for (const std::uint32_t pi : livePairs) pairMark[pi] = 1;
+  ascending(livePairs, pairs.size(), [&](std::size_t pi) { return pairMark[pi] != 0; });
+  for (const std::uint32_t pi : livePairs) pairMark[pi] = 0;
 }
 
 void DemSystem::Impl::computeForces(double kick) {

@@ -184,6 +184,7 @@ struct DemSystem::Impl {
   std::vector<std::uint8_t> liveMark;
   std::vector<std::uint32_t> livePairs;  // pair indices with an awake end, ascending
   std::vector<std::uint32_t> liveList;   // particles with a liveMark bit, ascending
+  std::vector<std::uint8_t> pairMark;    // selectLive scratch (all zero between calls)
   std::vector<std::uint8_t> fast;        // sleeping.cpp scratch: moving fast this step
   // The awake particles, ascending; kept by sleepUpdate while the live set is in use, so no
   // per-step pass costs the whole bed. Invalid after anything else sets awake flags.
