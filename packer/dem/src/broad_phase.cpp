@@ -130,7 +130,8 @@ void DemSystem::Impl::rebuildNeighbours() {
     }
   }
   pairs.swap(fresh);
-  pairOut.assign(pairs.size(), PairOut{});
+  pairOut.resize(pairs.size());  // stale contacts are never read: nothing is evaluated yet
+  pairEvaluated.assign(pairs.size(), 0);
   pairOutStale = false;  // the live pair indices of the old list mean nothing now
   // Each particle's pairs in pair order (counting sort).
   adjStart.assign(n + 1, 0);

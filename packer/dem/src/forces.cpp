@@ -57,9 +57,9 @@ void DemSystem::Impl::selectLive() {
   // Evaluated flags of the last evaluation's pairs go back to false (a full pass resets
   // them all in its pair loop; a rebuild starts from all false).
   if (pairOutStale && liveAll) {
-    for (PairOut& po : pairOut) po.evaluated = false;
+    std::fill(pairEvaluated.begin(), pairEvaluated.end(), std::uint8_t{0});
   } else if (pairOutStale) {
-    for (const std::uint32_t pi : livePairs) pairOut[pi].evaluated = false;
+    for (const std::uint32_t pi : livePairs) pairEvaluated[pi] = 0;
   }
   const bool wasAll = liveAll;
   std::vector<std::uint32_t> lastLive;
@@ -161,8 +161,8 @@ void DemSystem::Impl::computeForces(double kick) {
     for (std::int64_t k = 0; k < np; ++k) {
       const std::size_t pi = pairAt(k);
       Pair& p = pairs[pi];
-      PairOut& po = pairOut[pi];
-      po.evaluated = false;                      // the contact is read only when evaluated
+      ContactOut& c = pairOut[pi];
+      pairEvaluated[pi] = 0;                     // the contact is read only when evaluated
       if (!awake[p.i] && !awake[p.j]) continue;  // two sleepers keep their spring
       const double reach = tmpl[tid[p.i]].radiusMm + tmpl[tid[p.j]].radiusMm;
       if ((x[p.i] - x[p.j]).squaredNorm() >= reach * reach) {
@@ -170,9 +170,9 @@ void DemSystem::Impl::computeForces(double kick) {
         continue;
       }
       ++evaluated;
-      po.evaluated = true;
+      pairEvaluated[pi] = 1;
       if (closedForm[tid[p.i]] && closedForm[tid[p.j]]) {
-        po.c = spherePair(p);
+        c = spherePair(p);
       } else {
         sc.pair.clear();
         std::uint64_t evals = 0;
@@ -180,9 +180,9 @@ void DemSystem::Impl::computeForces(double kick) {
         // of area A and overlap delta carries k A delta as against a wall.
         pairHits(p, sc.pair, evals, searches);
         evalsTotal += evals;
-        po.c = nodeContact(sc.pair, body(p.i), body(p.j), pairLaw, p.xi);
+        c = nodeContact(sc.pair, body(p.i), body(p.j), pairLaw, p.xi);
       }
-      p.xi = po.c.touching ? po.c.xi : Vec3::Zero();
+      p.xi = c.touching ? c.xi : Vec3::Zero();
     }
 #pragma omp for schedule(dynamic, 16)
     for (std::int64_t k = 0; k < nw; ++k)
@@ -201,14 +201,15 @@ void DemSystem::Impl::computeForces(double kick) {
   interpenetrations = 0;
   maxWallFraction = 0;
   for (std::int64_t k = 0; k < np; ++k) {
-    const PairOut& po = pairOut[pairAt(k)];
-    if (!po.evaluated || !po.c.touching) continue;
-    elastic += po.c.elastic;
-    maxDepth = std::max(maxDepth, po.c.maxDepth);
-    sumDepth += po.c.maxDepth;
+    const std::size_t pi = pairAt(k);
+    const ContactOut& c = pairOut[pi];
+    if (!pairEvaluated[pi] || !c.touching) continue;
+    elastic += c.elastic;
+    maxDepth = std::max(maxDepth, c.maxDepth);
+    sumDepth += c.maxDepth;
     ++contactCount;
-    maxWallFraction = std::max(maxWallFraction, po.c.wallFraction);
-    if (po.c.flipped || po.c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
+    maxWallFraction = std::max(maxWallFraction, c.wallFraction);
+    if (c.flipped || c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
   }
   for (std::int64_t k = 0; k < nw; ++k) {  // a skipped sleeper's wall terms are zero
     const std::size_t i = liveAt(k);
@@ -222,15 +223,15 @@ void DemSystem::Impl::computeForces(double kick) {
     Vec3 f(0, 0, -opt.gravityMmPerS2 * tmpl[tid[i]].massG), tq = Vec3::Zero();
     for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a) {
       const std::size_t pi = adj[a];
-      const PairOut& po = pairOut[pi];
-      if (!po.evaluated || !po.c.touching) continue;
+      const ContactOut& c = pairOut[pi];
+      if (!pairEvaluated[pi] || !c.touching) continue;
       const Pair& p = pairs[pi];
       if (p.i == i) {
-        f += po.c.force;
-        tq += po.c.torqueA;
+        f += c.force;
+        tq += c.torqueA;
       } else {
-        f -= po.c.force;
-        tq -= po.c.torqueA + (x[p.i] - x[p.j]).cross(po.c.force);
+        f -= c.force;
+        tq -= c.torqueA + (x[p.i] - x[p.j]).cross(c.force);
       }
     }
     F[i] = f + wallF[i];

@@ -307,7 +307,8 @@ void DemSystem::restoreState(const json& j) {
       s.pairs.push_back(std::move(pr));
     }
     // The per-particle pair index (CSR), as rebuildNeighbours() makes it.
-    s.pairOut.assign(s.pairs.size(), Impl::PairOut{});
+    s.pairOut.assign(s.pairs.size(), ContactOut{});
+    s.pairEvaluated.assign(s.pairs.size(), 0);
     s.pairOutStale = false;
     s.liveAllNext = true;  // the first evaluation visits all, as before the save
     s.awakeListValid = false;
