@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <iterator>
+#include <numeric>
 
 #include "system_impl.hpp"
 
@@ -58,19 +59,13 @@ void DemSystem::Impl::rebuildNeighbours() {
     movedKeys.reserve(searchers.size());
     for (const std::uint32_t i : searchers) movedKeys.push_back(keyOf(i));
     std::sort(movedKeys.begin(), movedKeys.end());
-    std::vector<std::pair<std::uint64_t, std::uint32_t>> merged;
-    merged.reserve(n);
-    auto unmoved = cellKeys;
-    unmoved.erase(std::remove_if(unmoved.begin(), unmoved.end(),
-                                 [&](const auto& k) { return movedMark[k.second] != 0; }),
-                  unmoved.end());
-    std::merge(unmoved.begin(), unmoved.end(), movedKeys.begin(), movedKeys.end(),
-               std::back_inserter(merged));
-    cellKeys.swap(merged);
-    // The unmoved pairs as they were (ascending).
-    for (const Pair& p : pairs)
-      if (!movedMark[p.i] && !movedMark[p.j])
-        found.push_back(static_cast<std::uint64_t>(p.i) << 32 | p.j);
+    cellKeys.erase(std::remove_if(cellKeys.begin(), cellKeys.end(),
+                                  [&](const auto& k) { return movedMark[k.second] != 0; }),
+                   cellKeys.end());
+    cellMerge.clear();
+    std::merge(cellKeys.begin(), cellKeys.end(), movedKeys.begin(), movedKeys.end(),
+               std::back_inserter(cellMerge));
+    cellKeys.swap(cellMerge);
   } else {
     for (std::size_t i = 0; i < n && !diverged; ++i)
       if (tooFar(i)) diverged = true;
@@ -84,7 +79,6 @@ void DemSystem::Impl::rebuildNeighbours() {
   // any thread count. The key keeps x in its low bits, so the three cells x-1..x+1 of one
   // (y, z) row are one key range: nine searches a particle, not 27. A full search records a
   // pair from its lower index; a partial one from a moved particle, once for two moved ones.
-  const std::size_t kept = found.size();
   const int nt = partial ? 1 : particleThreads();
   const std::int64_t ns = static_cast<std::int64_t>(searchers.size());
 #pragma omp parallel num_threads(nt)
@@ -113,13 +107,34 @@ void DemSystem::Impl::rebuildNeighbours() {
 #pragma omp critical
     found.insert(found.end(), local.begin(), local.end());
   }
-  std::sort(found.begin() + static_cast<std::ptrdiff_t>(kept), found.end());
-  std::inplace_merge(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(kept), found.end());
+  std::sort(found.begin(), found.end());
+  // A partial rebuild changes only pairs with a moved end, old or new. Pairs are in (i, j)
+  // order, so every pair whose i is below the lowest i of those is kept as it was, with its
+  // index: that head (most of the bed, since the moving particles are the last poured) is not
+  // touched, and the tail from `head` on is rebuilt as a full rebuild would rebuild it.
+  std::size_t head = 0;
+  std::uint32_t low = 0;
+  if (partial) {
+    low = found.empty() ? static_cast<std::uint32_t>(n)
+                        : static_cast<std::uint32_t>(found.front() >> 32);
+    for (const std::uint32_t i : searchers)
+      for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1]; ++a)
+        low = std::min(low, pairs[adj[a]].i);
+    head = static_cast<std::size_t>(
+        std::partition_point(pairs.begin(), pairs.end(), [&](const Pair& p) { return p.i < low; }) -
+        pairs.begin());
+    const std::size_t fresh = found.size();
+    for (std::size_t o = head; o < pairs.size(); ++o)
+      if (!movedMark[pairs[o].i] && !movedMark[pairs[o].j])
+        found.push_back(static_cast<std::uint64_t>(pairs[o].i) << 32 | pairs[o].j);
+    std::inplace_merge(found.begin(), found.begin() + static_cast<std::ptrdiff_t>(fresh),
+                       found.end());
+  }
   // Carry the tangential springs and node lists of surviving pairs over (both sorted).
-  std::vector<Pair> fresh(found.size());
-  std::size_t o = 0;
+  std::vector<Pair> tail(found.size());
+  std::size_t o = head;
   for (std::size_t f = 0; f < found.size(); ++f) {
-    Pair& p = fresh[f];
+    Pair& p = tail[f];
     p.i = static_cast<std::uint32_t>(found[f] >> 32);
     p.j = static_cast<std::uint32_t>(found[f] & 0xffffffffu);
     p.xi = Vec3::Zero();
@@ -129,24 +144,51 @@ void DemSystem::Impl::rebuildNeighbours() {
       p.nodes = std::move(pairs[o].nodes);
     }
   }
-  pairs.swap(fresh);
+  pairs.erase(pairs.begin() + static_cast<std::ptrdiff_t>(head), pairs.end());
+  pairs.insert(pairs.end(), std::make_move_iterator(tail.begin()),
+               std::make_move_iterator(tail.end()));
   pairOut.resize(pairs.size());  // stale contacts are never read: nothing is evaluated yet
   pairEvaluated.assign(pairs.size(), 0);
   pairOutStale = false;  // the live pair indices of the old list mean nothing now
-  // Each particle's pairs in pair order (counting sort).
-  adjStart.assign(n + 1, 0);
-  for (const Pair& p : pairs) {
-    ++adjStart[p.i + 1];
-    ++adjStart[p.j + 1];
+  // Each particle's pairs in pair order (counting sort). A particle below `low` has all its
+  // pairs in the head, which kept their indices, so its entries stand; the others keep their
+  // head entries (as j of a head pair, first in pair order) and get their tail pairs after.
+  const std::uint32_t from = low;
+  const std::size_t adjFrom = partial ? adjStart[from] : 0;
+  std::vector<std::uint32_t> count(n - from, 0);
+  if (partial)
+    for (std::uint32_t i = from; i < n; ++i)
+      for (std::uint32_t a = adjStart[i]; a < adjStart[i + 1] && adj[a] < head; ++a)
+        ++count[i - from];
+  std::vector<std::uint32_t> headCount = count;
+  for (std::size_t pi = head; pi < pairs.size(); ++pi) {
+    ++count[pairs[pi].i - from];
+    ++count[pairs[pi].j - from];
   }
-  for (std::size_t i = 0; i < n; ++i) adjStart[i + 1] += adjStart[i];
-  adj.resize(2 * pairs.size());
-  std::vector<std::uint32_t> fill(adjStart.begin(), adjStart.end() - 1);
-  for (std::size_t pi = 0; pi < pairs.size(); ++pi) {
-    adj[fill[pairs[pi].i]++] = static_cast<std::uint32_t>(pi);
-    adj[fill[pairs[pi].j]++] = static_cast<std::uint32_t>(pi);
+  std::vector<std::uint32_t> seg;
+  seg.resize(std::accumulate(count.begin(), count.end(), std::size_t{0}));
+  std::vector<std::uint32_t> fill(n - from);
+  std::size_t at = 0;
+  for (std::uint32_t i = from; i < n; ++i) {
+    fill[i - from] = static_cast<std::uint32_t>(at);
+    if (partial)
+      for (std::uint32_t a = adjStart[i]; a < adjStart[i] + headCount[i - from]; ++a)
+        seg[fill[i - from]++] = adj[a];
+    at += count[i - from];
   }
-  xBuild = x;
+  for (std::size_t pi = head; pi < pairs.size(); ++pi) {
+    seg[fill[pairs[pi].i - from]++] = static_cast<std::uint32_t>(pi);
+    seg[fill[pairs[pi].j - from]++] = static_cast<std::uint32_t>(pi);
+  }
+  adjStart.resize(n + 1);
+  adj.resize(adjFrom);
+  adj.insert(adj.end(), seg.begin(), seg.end());
+  for (std::uint32_t i = from; i < n; ++i) adjStart[i + 1] = adjStart[i] + count[i - from];
+  if (partial) {
+    for (const std::uint32_t i : movedList) xBuild[i] = x[i];
+  } else {
+    xBuild = x;
+  }
   for (const std::uint32_t i : movedList) movedMark[i] = 0;
   movedList.clear();
   movedAll = false;

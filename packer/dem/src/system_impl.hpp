@@ -196,6 +196,7 @@ struct DemSystem::Impl {
   bool movedAll = true;
   // The last build's cell list (cell key, particle), ascending: a partial rebuild updates it.
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cellKeys;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> cellMerge;  // its update's scratch
   void selectLive();
   void listAwake();  // awakeList from the flags (a pass over all particles)
   bool forcesValid = false;
