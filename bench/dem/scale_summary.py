@@ -28,6 +28,7 @@ for n in counts:
         "neighbour_rebuilds": dem["neighbour_rebuilds"],
         "neighbour_rebuilds_partial": dem.get("neighbour_rebuilds_partial"),
         "mean_overlap_d": dem["mean_overlap_d"], "max_overlap_d": dem["max_overlap_d"],
+        "interpenetrations": dem.get("interpenetrations"),
         "us_per_particle_step": 1e6 * dem["dem_wall_time_s"] / max(1, ps),
         "us_per_integrated_particle_step": 1e6 * dem["dem_wall_time_s"] / max(1, ips),
         "wall_s_per_simulated_s": dem["dem_wall_time_s"] / max(1e-12, dem["simulated_time_s"]),
