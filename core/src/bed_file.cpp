@@ -253,9 +253,14 @@ class HeapCollections {
 // Checks every variable-length string element that `read` (H5Aread or H5Dread into the
 // opaque VlenRef type) yields against its heap collection, so that libhdf5's own read of
 // the same elements cannot loop or overrun.
+// libhdf5 allocates and zeroes (length x character size) bytes for each string it reads, with
+// the character size the file declares (a fuzzed bed declared 1.8 GB and took 19 GB).
 template <class Read>
-void checkVlenStrings(const Ctx& ctx, hid_t obj, const std::string& what, std::size_t n,
+void checkVlenStrings(const Ctx& ctx, hid_t obj, hid_t type, const std::string& what, std::size_t n,
                       Read read) {
+  Handle base(H5Tget_super(type), H5Tclose);
+  if (!base.ok() || H5Tget_size(base.get()) != 1)
+    ctx.format(what + " is not a string of one-byte characters");
   const Handle refType = vlenRefType();
   std::vector<VlenRef> refs(n);
   if (read(refType.get(), refs.data()) < 0)
@@ -286,7 +291,7 @@ std::string readStringAttr(const Ctx& ctx, hid_t obj, const char* name) {
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), H5T_VARIABLE);
     H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    checkVlenStrings(ctx, obj, std::string("attribute ") + name, 1,
+    checkVlenStrings(ctx, obj, type.get(), std::string("attribute ") + name, 1,
                      [&](hid_t t, void* buf) { return H5Aread(attr.get(), t, buf); });
     char* s = nullptr;
     if (H5Aread(attr.get(), mem.get(), &s) < 0) ctx.format(std::string("cannot read ") + name);
@@ -331,10 +336,41 @@ hid_t nativeType<std::uint32_t>() {
 }
 
 // Opens a rank-3 integer volume and checks its type and shape against `lattice`.
-Handle openVolume(const Ctx& ctx, hid_t file, const char* path, const Lattice& lattice,
-                  bool requireUint8) {
+// Opens the dataset at `path`. A compact dataset keeps its data in its object header, and
+// libhdf5 1.10 copies points x element bytes out of it whatever it holds (a fuzzed bed's
+// /particles/shape held 0 bytes for its one 16-byte element: a memcpy from NULL in H5Dread),
+// so the stored size must be exactly that.
+Handle openDataset(const Ctx& ctx, hid_t file, const char* path) {
   Handle ds(H5Dopen2(file, path, H5P_DEFAULT), H5Dclose);
   if (!ds.ok()) ctx.format(std::string(path) + " is not a dataset");
+  Handle dcpl(H5Dget_create_plist(ds.get()), H5Pclose);
+  if (!dcpl.ok()) ctx.format(std::string("cannot read the storage of ") + path);
+  if (H5Pget_layout(dcpl.get()) != H5D_COMPACT) return ds;
+  Handle type(H5Dget_type(ds.get()), H5Tclose);
+  Handle space(H5Dget_space(ds.get()), H5Sclose);
+  const hssize_t points = H5Sget_simple_extent_npoints(space.get());
+  std::size_t element = H5Tget_size(type.get());
+  // H5Dget_type gives the in-memory size of a variable-length element; the file stores a
+  // length, a collection address and an index.
+  if (H5Tis_variable_str(type.get()) > 0 || H5Tget_class(type.get()) == H5T_VLEN) {
+    Handle f(H5Iget_file_id(ds.get()), H5Fclose);
+    Handle fcpl(f.ok() ? H5Fget_create_plist(f.get()) : -1, H5Pclose);
+    size_t sizeofAddr = 0, sizeofSize = 0;
+    if (!fcpl.ok() || H5Pget_sizes(fcpl.get(), &sizeofAddr, &sizeofSize) < 0)
+      ctx.format("cannot read the file's address sizes");
+    element = 8 + sizeofAddr;
+  }
+  const hsize_t stored = H5Dget_storage_size(ds.get());
+  if (points < 0 || element == 0 || stored != static_cast<hsize_t>(points) * element)
+    ctx.format(std::string(path) + " is compact with " + std::to_string(stored) +
+               " bytes stored for " + std::to_string(points) + " values of " +
+               std::to_string(element) + " bytes");
+  return ds;
+}
+
+Handle openVolume(const Ctx& ctx, hid_t file, const char* path, const Lattice& lattice,
+                  bool requireUint8) {
+  Handle ds = openDataset(ctx, file, path);
   Handle type(H5Dget_type(ds.get()), H5Tclose);
   if (H5Tget_class(type.get()) != H5T_INTEGER)
     ctx.format(std::string(path) + " must be an integer dataset (" +
@@ -407,8 +443,7 @@ void checkBinaryBox(const Ctx& ctx, const Grid<std::uint8_t>& g, const char* pat
 
 std::vector<double> readMatrix(const Ctx& ctx, hid_t file, const char* path, std::size_t cols,
                                std::size_t& rows) {
-  Handle ds(H5Dopen2(file, path, H5P_DEFAULT), H5Dclose);
-  if (!ds.ok()) ctx.format(std::string(path) + " is not a dataset");
+  Handle ds = openDataset(ctx, file, path);
   Handle type(H5Dget_type(ds.get()), H5Tclose);
   const H5T_class_t cls = H5Tget_class(type.get());
   if (cls != H5T_FLOAT && cls != H5T_INTEGER) ctx.format(std::string(path) + " must be numeric");
@@ -432,8 +467,7 @@ std::vector<double> readMatrix(const Ctx& ctx, hid_t file, const char* path, std
 }
 
 std::vector<std::string> readStrings(const Ctx& ctx, hid_t file, const char* path) {
-  Handle ds(H5Dopen2(file, path, H5P_DEFAULT), H5Dclose);
-  if (!ds.ok()) ctx.format(std::string(path) + " is not a dataset");
+  Handle ds = openDataset(ctx, file, path);
   Handle type(H5Dget_type(ds.get()), H5Tclose);
   const auto shape = datasetShape(ds.get());
   if (shape.size() != 1) ctx.format(std::string(path) + " must be one-dimensional");
@@ -448,7 +482,7 @@ std::vector<std::string> readStrings(const Ctx& ctx, hid_t file, const char* pat
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), H5T_VARIABLE);
     H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    checkVlenStrings(ctx, file, path, n, [&](hid_t t, void* buf) {
+    checkVlenStrings(ctx, file, type.get(), path, n, [&](hid_t t, void* buf) {
       return H5Dread(ds.get(), t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
     });
     std::vector<char*> ptrs(n, nullptr);
@@ -475,7 +509,7 @@ std::vector<std::string> readStrings(const Ctx& ctx, hid_t file, const char* pat
 // Particle shapes stored as an integer index into /particles/shape_table.
 std::vector<std::string> readShapeIndices(const Ctx& ctx, hid_t file) {
   std::size_t rows = 0;
-  Handle ds(H5Dopen2(file, "/particles/shape", H5P_DEFAULT), H5Dclose);
+  Handle ds = openDataset(ctx, file, "/particles/shape");
   const auto shape = datasetShape(ds.get());
   if (shape.size() != 1) ctx.format("/particles/shape must be one-dimensional");
   rows = shape[0];
@@ -603,8 +637,7 @@ Handle openForRead(const fs::path& path, const Ctx& ctx, bool parallel = false) 
 
 // Rows of a particle dataset (its first dimension), checked against the limit.
 std::uint64_t particleRows(const Ctx& ctx, hid_t file, const char* path, int rank, hsize_t cols) {
-  Handle ds(H5Dopen2(file, path, H5P_DEFAULT), H5Dclose);
-  if (!ds.ok()) ctx.format(std::string(path) + " is not a dataset");
+  Handle ds = openDataset(ctx, file, path);
   const auto shape = datasetShape(ds.get());
   if (static_cast<int>(shape.size()) != rank || (rank == 2 && shape[1] != cols))
     ctx.format(std::string(path) + (rank == 2 ? " must have shape [N," + std::to_string(cols) + "]"
@@ -648,8 +681,7 @@ BedHeader readHeaderFrom(const Ctx& ctx, hid_t f) {
 
   if (!linkExists(f, "/indicator")) ctx.format("dataset /indicator is missing");
   {
-    Handle ds(H5Dopen2(f, "/indicator", H5P_DEFAULT), H5Dclose);
-    if (!ds.ok()) ctx.format("/indicator is not a dataset");
+    Handle ds = openDataset(ctx, f, "/indicator");
     const auto shape = datasetShape(ds.get());
     if (shape.size() != 3)
       ctx.format("/indicator must have rank 3 [nz,ny,nx], found rank " +
@@ -719,7 +751,7 @@ ParticleTable readParticlesFrom(const Ctx& ctx, hid_t f, const BedHeader& h) {
       t.orientation.emplace_back(q[4 * r], q[4 * r + 1], q[4 * r + 2], q[4 * r + 3]);
   }
   if (h.hasShape) {
-    Handle ds(H5Dopen2(f, "/particles/shape", H5P_DEFAULT), H5Dclose);
+    Handle ds = openDataset(ctx, f, "/particles/shape");
     Handle type(H5Dget_type(ds.get()), H5Tclose);
     t.shape = H5Tget_class(type.get()) == H5T_INTEGER ? readShapeIndices(ctx, f)
                                                       : readStrings(ctx, f, "/particles/shape");

@@ -86,6 +86,49 @@ constexpr unsigned kMsgContinuation = 0x10;
 constexpr unsigned kMsgAttribute = 0x0C;
 constexpr unsigned kMsgFlagShared = 0x02;
 
+// Checks an attribute's datatype message (`n` bytes) and returns the size of one element as
+// stored in the message. Only the classes voxpack writes are read: fixed-point and floating
+// point numbers of 1 to 8 bytes, fixed-length strings and variable-length strings. libhdf5
+// 1.10 decodes an enum's member names with strdup up to a NUL the message may not hold, and
+// it copies an attribute's data by the declared size but later reads a variable-length
+// element as 4 + address size + 4 bytes (H5T_set_loc), and allocates (and zeroes) a
+// string's length times its declared character size: a 13.5 KB bed whose character was
+// 1.8 GB wide took 19 GB and two minutes to be refused.
+std::uint64_t checkDatatype(const RawFile& raw, const unsigned char* t, std::uint64_t n,
+                            const std::string& where) {
+  constexpr unsigned kFixed = 0, kFloat = 1, kString = 3, kVlen = 9;
+  const unsigned cls = t[0] & 0x0F;
+  const std::uint64_t size = le(t + 4, 4);
+  switch (cls) {
+    case kFixed:
+    case kFloat:
+      if (size != 1 && size != 2 && size != 4 && size != 8)
+        raw.fail(where + ": a number of " + std::to_string(size) + " bytes");
+      return size;
+    case kString:
+      return size;
+    case kVlen: {
+      // Class bits 0-3: 1 = string (a sequence is not written by voxpack); the base type,
+      // a full datatype message of one character, follows the 8-byte head.
+      if ((t[1] & 0x0F) != 1) raw.fail(where + ": a variable-length sequence");
+      if (n < 16) raw.fail(where + ": variable-length string datatype truncated");
+      const unsigned baseCls = t[8] & 0x0F;
+      const std::uint64_t baseSize = le(t + 12, 4);
+      if ((baseCls != kFixed && baseCls != kString) || baseSize != 1)
+        raw.fail(where + ": a variable-length string of " + std::to_string(baseSize) +
+                 "-byte characters");
+      // libhdf5 copies `size` bytes of data and then reads 4 + address size + 4.
+      const std::uint64_t stored = 4 + raw.sizeofAddr() + 4;
+      if (size != stored)
+        raw.fail(where + ": a variable-length string element of " + std::to_string(size) +
+                 " bytes, not " + std::to_string(stored));
+      return stored;
+    }
+    default:
+      raw.fail(where + ": datatype class " + std::to_string(cls) + ", which voxpack does not read");
+  }
+}
+
 // Checks one attribute message: H5O__attr_decode copies (element size x points) bytes of
 // data out of the message without comparing them with the message's size.
 void checkAttribute(const RawFile& raw, const unsigned char* d, std::uint64_t size,
@@ -105,7 +148,7 @@ void checkAttribute(const RawFile& raw, const unsigned char* d, std::uint64_t si
   if (dataAt > size || dtLen < 8 || dsLen < 2)
     raw.fail(where + " declares a name, datatype and dataspace larger than the message (" +
              std::to_string(dataAt) + " of " + std::to_string(size) + " bytes)");
-  const std::uint64_t element = le(d + dtAt + 4, 4);
+  const std::uint64_t element = checkDatatype(raw, d + dtAt, dtLen, where);
 
   const unsigned char* s = d + dsAt;
   const unsigned dsVersion = s[0], rank = s[1];

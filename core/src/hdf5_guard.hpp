@@ -14,7 +14,8 @@
 namespace voxpack::hdf5guard {
 
 /// Parses the object header of `obj` from the file's bytes and throws FormatError("FILE: ...")
-/// when an attribute message's name, datatype, dataspace and data do not fit the message.
+/// when an attribute message's name, datatype, dataspace and data do not fit the message, or
+/// its datatype is not one voxpack writes (numbers, strings of one-byte characters).
 void checkAttributeMessages(hid_t obj, const std::string& file, const std::string& what);
 
 /// Reads the hyperslab [start, start + count) of `ds` into `out` (C order, memType elements)

@@ -305,3 +305,48 @@ TEST(FuzzRegressions, AttributeDataLargerThanItsMessageIsRefused) {
         << f << ": " << message;
   }
 }
+
+// fuzz_bed_reader (CI of 2026-12-06 and a 7-minute run after it), three datatype classes of
+// the root's attribute messages that libhdf5 1.10.8 mishandles in H5Aexists / H5Aread:
+// - timeout-fb90...: the `format` string's character is declared 1 802 398 060 bytes wide;
+//   H5T__conv_vlen allocated and zeroed length x width (19.8 GB; the release `voxpack info`
+//   took 112 s and 19 GB of RSS before its refusal);
+// - crash-7e78...: a variable-length string element declared 7 bytes: libhdf5 copies 7
+//   bytes of data and then reads 16 (a heap over-read in H5A__read);
+// - crash-c7d9...: an enum datatype whose member names are not terminated in the message
+//   (strdup reads past it in the attribute decoder).
+TEST(FuzzRegressions, AttributeDatatypesLibhdf5MisreadsAreRefused) {
+  struct Case {
+    const char* file;
+    const char* message;
+  };
+  for (const Case& c : {Case{"timeout-fb90350c6ef8bad13ae11c405710da63a2a2d019",
+                             "a variable-length string of 1802398060-byte characters"},
+                        Case{"crash-7e78a1a9879bb3f5ec107c793b5b3ffd5e0aedc3",
+                             "a variable-length string element of 7 bytes, not 16"},
+                        Case{"crash-c7d95d4b5153681412fda2219eff51139b65a7ca",
+                             "datatype class 8, which voxpack does not read"}}) {
+    std::string message;
+    const std::string file = kFindings + "bed_reader/" + c.file;
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_EQ(boundedReadBed(file, message, 10), ReadOutcome::FormatError)
+        << c.file << ": " << message;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5);
+    EXPECT_NE(message.find("root group: attribute message"), std::string::npos) << message;
+    EXPECT_NE(message.find(c.message), std::string::npos) << c.file << ": " << message;
+  }
+}
+
+// fuzz_bed_reader (a 7-minute run on 2026-12-06, after the fixes above): /particles/shape
+// made compact with 0 bytes stored for its one 16-byte element; H5Dread copied the element
+// out of the missing buffer (memcpy from NULL in H5VM_memcpyvv). Compact datasets must
+// store exactly points x element bytes.
+TEST(FuzzRegressions, CompactDatasetHoldingLessThanItsValuesIsRefused) {
+  std::string message;
+  const std::string f = "crash-e35baca05ec9133e0afcdd14cffd41292e10c0c1";
+  EXPECT_EQ(boundedReadBed(kFindings + "bed_reader/" + f, message, 10), ReadOutcome::FormatError)
+      << message;
+  EXPECT_NE(message.find("/particles/shape is compact with 0 bytes stored for 1 values of 16"),
+            std::string::npos)
+      << message;
+}
