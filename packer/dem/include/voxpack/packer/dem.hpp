@@ -184,6 +184,10 @@ struct ParticleTemplate {
   /// surface node (a sphere: d; a ring: min(wall, length)). Past half of it the other body's
   /// nodes cross the medial surface and the level-set normal flips (interpenetration).
   double thinWallMm = 0;
+  /// Every node lies behind every other node's tangent plane (within h/20): a convex body,
+  /// whose level-set normal turns only at the medial surface of its edges, close under the
+  /// surface, so there a turned normal is not interpenetration (the wall depth test is).
+  bool convex = false;
   std::vector<Vec3> nodeP;         ///< node on the exact surface (principal frame)
   std::vector<Vec3> nodeFace;      ///< voxel face normal of the node (principal)
   std::vector<Vec3> nodeNormal;    ///< exact outward normal (principal)
@@ -274,7 +278,8 @@ class DemSystem {
   std::size_t contactCount() const;  ///< touching particle pairs, last step
   /// Touching pairs that interpenetrate, last step: a node deeper than
   /// kInterpenetrationWallFraction of the other body's thinnest wall, or a node whose
-  /// other-body normal has flipped (within 60 deg of the node's own outward normal).
+  /// other-body normal has flipped (within 60 deg of the node's own outward normal) inside a
+  /// body that is not convex.
   std::size_t interpenetrationCount() const;
   /// Deepest pair overlap over the thinnest wall of the body it enters, last step.
   double maxOverlapWallFraction() const;
