@@ -420,6 +420,8 @@ class DemMode final : public PackMode {
         {"contacts", r.contacts},
         {"interpenetrations", r.interpenetrations},
         {"max_overlap_wall_fraction", r.maxOverlapWallFraction},
+        {"max_overlap_wall_fraction_run", r.maxOverlapWallFractionRun},
+        {"interpenetrating_steps", r.interpenetratingSteps},
         {"clipped_outside_mask_mm3", clippedMm3},
         {"wall_friction", o.wallFriction >= 0 ? o.wallFriction : o.friction},
         {"wall_restitution", o.wallRestitution >= 0 ? o.wallRestitution : o.restitution},

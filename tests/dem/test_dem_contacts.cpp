@@ -176,6 +176,9 @@ void ringOnRing(double stiffness, double speed, std::size_t& mostInterpenetratin
     mostInterpenetrating = std::max(mostInterpenetrating, sys->interpenetrationCount());
     deepestWallFraction = std::max(deepestWallFraction, sys->maxOverlapWallFraction());
   }
+  // The system's own run-long record agrees with the maximum taken here step by step.
+  EXPECT_DOUBLE_EQ(sys->runMaxOverlapWallFraction(), deepestWallFraction);
+  EXPECT_EQ(sys->interpenetratingSteps() > 0, mostInterpenetrating > 0);
 }
 
 // Holed shapes: a gentle impact stays far from the thinnest wall and is no
@@ -195,37 +198,24 @@ TEST(DemContacts, RingThroughRingWallIsCountedAsInterpenetration) {
   EXPECT_GT(deepest, packer::dem::kInterpenetrationWallFraction);
 }
 
-// Convexity of the templates from their nodes: spheres, cylinders and boxes are convex; a
-// ring's bore and a trilobe's valleys are not.
-TEST(DemContacts, TemplatesKnowWhetherTheyAreConvex) {
-  struct Case {
-    const char* spec;
-    bool convex;
-  };
-  for (const Case& c :
-       {Case{"sphere:d=3", true}, Case{"cylinder:d=2,l=2", true}, Case{"box:x=3,y=2,z=1", true},
-        Case{"ring:d=6,di=3,l=2", false}, Case{"trilobe:d=3,l=2", false}}) {
-    const auto t = buildTemplate(packer::dem::demShape(packer::parseShape(c.spec)), 0.1, 1.0);
-    EXPECT_EQ(t.convex, c.convex) << c.spec;
+// B stacked on A, 0.01 mm to the side and sunk 0.15 mm: A's side nodes just under its rim lie
+// 0.01 mm inside B's side, where B's normal is its side normal, the same as theirs (the
+// medial surface of B's bottom edge meets the surface there). An ordinary stacking contact
+// at a few percent of the wall, which the former flipped-normal test counted as
+// interpenetration (settled beds of 10^4 cylinders reported 97 such pairs). Cylinders
+// (convex) and rings (holed) alike.
+TEST(DemContacts, ShallowContactAtAnEdgeIsNotInterpenetration) {
+  for (const char* spec : {"cylinder:d=2,l=2", "ring:d=6,di=3,l=2"}) {
+    const auto shape = packer::dem::demShape(packer::parseShape(spec));
+    auto sys = system1(shape, 0.1, quiet(), std::make_shared<TestBox>(200));
+    sys->addParticle(0, Vec3(0, 0, 50), Quat::Identity());
+    sys->addParticle(0, Vec3(0.01, 0, 50 + 2 - 0.15), Quat::Identity());
+    sys->step();
+    EXPECT_GT(sys->contactCount(), 0u) << spec;
+    EXPECT_LT(sys->maxOverlapWallFraction(), 0.15) << spec;
+    EXPECT_EQ(sys->interpenetrationCount(), 0u) << spec;
+    EXPECT_EQ(sys->interpenetratingSteps(), 0u) << spec;
   }
-}
-
-// Cylinder B (d 2, l 2) stacked on A, 0.01 mm to the side and sunk 0.15 mm: A's side nodes
-// just under its rim lie 0.01 mm inside B's side, where B's normal is its side normal,
-// the same as theirs (the medial surface of B's bottom edge is right there). A shallow,
-// ordinary stacking contact, 0.5 % of the wall, that the flip test counted as
-// interpenetration (settled 10^4-cylinder beds reported 97 pairs); for a convex body only
-// the depth test counts.
-TEST(DemContacts, ShallowContactAtACylinderEdgeIsNotInterpenetration) {
-  const auto cyl = packer::dem::demShape(packer::parseShape("cylinder:d=2,l=2"));
-  auto sys = system1(cyl, 0.1, quiet(), std::make_shared<TestBox>(200));
-  ASSERT_TRUE(sys->templates()[0].convex);
-  sys->addParticle(0, Vec3(0, 0, 50), Quat::Identity());
-  sys->addParticle(0, Vec3(0.01, 0, 50 + 2 - 0.15), Quat::Identity());
-  sys->step();
-  EXPECT_GT(sys->contactCount(), 0u);
-  EXPECT_LT(sys->maxOverlapWallFraction(), 0.1);
-  EXPECT_EQ(sys->interpenetrationCount(), 0u);
 }
 
 // A sphere thrown at a round wall at 45 degrees azimuth: one contact region, one damper

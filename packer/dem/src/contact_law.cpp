@@ -119,7 +119,6 @@ ContactOut DemSystem::Impl::nodeContact(const std::vector<Hit>& hits, const Body
     out.maxDepth = std::max(out.maxDepth, h.depth);
     out.elastic += 0.5 * h.kw * h.depth * h.depth;
     out.wallFraction = std::max(out.wallFraction, h.wallFraction);
-    out.flipped = out.flipped || h.flipped;
   }
   cp /= wd;
   const double springMag = spring.norm();

@@ -25,15 +25,12 @@ Hit DemSystem::Impl::nodeHit(const ParticleTemplate& ta, const ParticleTemplate&
     h.kw = k * ta.nodeLsArea[ni] * factor;
   }
   h.dir *= sign;
-  // Interpenetration: the node is deep against b's thinnest wall, or it has passed b's
-  // medial surface, where b's normal turns to face along the node's own outward normal
-  // (within 60 deg: at an edge of a a legitimate contact has the two normals up to ~75 deg
-  // apart, e.g. a ring's side node under another ring's curved rim). Only for a b that is
-  // not convex: a convex b's medial surface reaches its surface at every edge, and a node
-  // a few hundredths of the wall under a cylinder's rim meets the cap normal there (dots
-  // 0.52-0.78 measured in a settled bed); passing through it needs the depth test's depth.
+  // Interpenetration is judged by depth alone: a surface that has crossed the medial surface
+  // of b's wall has nodes near that surface, about half the wall deep. A turned normal is
+  // no sign of it: at every edge of b the medial surface meets the surface, so a node a
+  // hundredth of the wall under a rim meets the neighbouring face's normal (settled beds of
+  // cylinders, rings and trilobes showed such "flips" at 0.02-0.28 of the wall, all at edges).
   h.wallFraction = h.depth / tb.thinWallMm;
-  h.flipped = !tb.convex && nb.dot(ra * ta.nodeNormal[ni]) > 0.5;
   return h;
 }
 

@@ -484,13 +484,19 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
   result.contacts = sys.contactCount();
   result.interpenetrations = sys.interpenetrationCount();
   result.maxOverlapWallFraction = sys.maxOverlapWallFraction();
-  if (result.interpenetrations > 0) {
+  result.maxOverlapWallFractionRun = sys.runMaxOverlapWallFraction();
+  result.interpenetratingSteps = sys.interpenetratingSteps();
+  // At the end, or once during the run past the medial surface (half the wall), where the
+  // level-set normal turns and pushes a node on through: either may have left a particle
+  // through another's wall.
+  if (result.interpenetrations > 0 || result.maxOverlapWallFractionRun > 0.5) {
     std::ostringstream m;
     m << "dem: " << result.interpenetrations
       << " particle pairs interpenetrate at the end (an overlap past "
-      << kInterpenetrationWallFraction
-      << " of the thinnest wall, or a flipped normal); deepest overlap "
-      << result.maxOverlapWallFraction << " of the thinnest wall: try a stiffer --stiffness or a "
+      << kInterpenetrationWallFraction << " of the thinnest wall; deepest "
+      << result.maxOverlapWallFraction << "), deepest during the run "
+      << result.maxOverlapWallFractionRun << " of the thinnest wall in "
+      << result.interpenetratingSteps << " steps with one: try a stiffer --stiffness or a "
       << "smaller --target-overlap";
     result.messages.push_back(m.str());
     progress.message("warning: " + m.str());

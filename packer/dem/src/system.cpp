@@ -264,6 +264,8 @@ double DemSystem::meanOverlapMm() const {
 std::size_t DemSystem::contactCount() const { return impl_->contactCount; }
 std::size_t DemSystem::interpenetrationCount() const { return impl_->interpenetrations; }
 double DemSystem::maxOverlapWallFraction() const { return impl_->maxWallFraction; }
+double DemSystem::runMaxOverlapWallFraction() const { return impl_->runMaxWallFraction; }
+std::uint64_t DemSystem::interpenetratingSteps() const { return impl_->interpenetratingSteps; }
 bool DemSystem::diverged() const { return impl_->diverged; }
 double DemSystem::timeStepS() const { return impl_->dt; }
 double DemSystem::contactTimeS() const { return impl_->tc; }

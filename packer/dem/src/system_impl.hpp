@@ -31,7 +31,6 @@ struct Hit {
   double depth;
   double kw;                ///< face stiffness x area weight x side factor (g/s^2)
   double wallFraction = 0;  ///< depth / thinnest wall of the body the node is in (pairs)
-  bool flipped = false;     ///< the other body's normal faces the node's own outward normal
 };
 
 /// Kinematics and inertia of one side of a contact (a wall has zero inverse mass).
@@ -66,7 +65,6 @@ struct ContactOut {
   double maxDepth = 0;
   double elastic = 0;
   double wallFraction = 0;  ///< deepest hit over the thinnest wall it is in (pairs)
-  bool flipped = false;     ///< some hit has a flipped normal (pairs)
 };
 
 /// Contact parameters of one kind of contact (particle-particle or particle-wall).
@@ -206,8 +204,10 @@ struct DemSystem::Impl {
   double maxDepth = 0;
   double sumDepth = 0;  // over touching contacts, last force evaluation
   std::uint64_t contactCount = 0;
-  std::uint64_t interpenetrations = 0;  // pairs, last force evaluation
-  double maxWallFraction = 0;           // pairs, last force evaluation
+  std::uint64_t interpenetrations = 0;      // pairs, last force evaluation
+  double maxWallFraction = 0;               // pairs, last force evaluation
+  double runMaxWallFraction = 0;            // pairs, every force evaluation of this process
+  std::uint64_t interpenetratingSteps = 0;  // force evaluations with an interpenetrating pair
   DemCounters counters;
 
   double rMaxMm = 0;      // largest bounding radius of the templates

@@ -129,20 +129,6 @@ ParticleTemplate buildTemplate(std::shared_ptr<const DemShape> shape, double vox
     t.thinWallMm = std::min(t.thinWallMm, hi);
   }
 
-  // Convexity from the nodes: no node in front of another node's tangent plane. A cylinder's
-  // nodes pass with margin 0 (they sit on the exact surface); a ring's bore, a trilobe's
-  // valleys fail by a chord. O(nodes^2), a few hundred thousand products per shape.
-  t.convex = true;
-  const double tol = 0.05 * h;
-  for (std::size_t m = 0; m < t.nodeP.size() && t.convex; ++m) {
-    const double plane = t.nodeNormal[m].dot(t.nodeP[m]) + tol;
-    for (const Vec3& q : t.nodeP)
-      if (t.nodeNormal[m].dot(q) > plane) {
-        t.convex = false;
-        break;
-      }
-  }
-
   // Two-level bounding-sphere hierarchy: 3^3 coarse cells of 3^3 fine cells each, so a pair
   // visits only the nodes near its contact.
   const double r = t.radiusMm * (1 + 1e-9) + h;
@@ -221,7 +207,6 @@ ParticleTemplate scaledTemplate(const ParticleTemplate& base, std::shared_ptr<co
   t.diameterMm = base.diameterMm * s;
   t.flatAreaMm2 = base.flatAreaMm2 * s * s;
   t.thinWallMm = base.thinWallMm * s;
-  t.convex = base.convex;
   if (!nodes) return t;
   t.nodeP = base.nodeP;
   for (auto& p : t.nodeP) p *= s;

@@ -184,10 +184,6 @@ struct ParticleTemplate {
   /// surface node (a sphere: d; a ring: min(wall, length)). Past half of it the other body's
   /// nodes cross the medial surface and the level-set normal flips (interpenetration).
   double thinWallMm = 0;
-  /// Every node lies behind every other node's tangent plane (within h/20): a convex body,
-  /// whose level-set normal turns only at the medial surface of its edges, close under the
-  /// surface, so there a turned normal is not interpenetration (the wall depth test is).
-  bool convex = false;
   std::vector<Vec3> nodeP;         ///< node on the exact surface (principal frame)
   std::vector<Vec3> nodeFace;      ///< voxel face normal of the node (principal)
   std::vector<Vec3> nodeNormal;    ///< exact outward normal (principal)
@@ -277,12 +273,14 @@ class DemSystem {
   double meanOverlapMm() const;      ///< mean of the pair contacts' deepest overlap, last step
   std::size_t contactCount() const;  ///< touching particle pairs, last step
   /// Touching pairs that interpenetrate, last step: a node deeper than
-  /// kInterpenetrationWallFraction of the other body's thinnest wall, or a node whose
-  /// other-body normal has flipped (within 60 deg of the node's own outward normal) inside a
-  /// body that is not convex.
+  /// kInterpenetrationWallFraction of the other body's thinnest wall.
   std::size_t interpenetrationCount() const;
   /// Deepest pair overlap over the thinnest wall of the body it enters, last step.
   double maxOverlapWallFraction() const;
+  /// The same, deepest over every step this object has taken (not carried by checkpoints).
+  double runMaxOverlapWallFraction() const;
+  /// Steps this object has taken with at least one interpenetrating pair.
+  std::uint64_t interpenetratingSteps() const;
   /// True once the state blew up (non-finite, or a runaway speed); step() then does nothing.
   bool diverged() const;
   double timeStepS() const;                                ///< chosen step (s)
@@ -390,22 +388,24 @@ DemOptions optionsFromJson(const nlohmann::json& j);
 
 /// Result of a packing run.
 struct DemResult {
-  DemStatus status = DemStatus::kTimeCap;  ///< how it ended
-  ParticleTable particles;                 ///< final centres, orientations, shape specs
-  double timeStepS = 0;                    ///< time step used
-  double contactTimeS = 0;                 ///< reference contact duration
-  double stiffnessNPerMm3 = 0;             ///< face stiffness used
-  double loadHeightMm = 0;                 ///< bed depth whose weight set the auto stiffness
-  double simulatedTimeS = 0;               ///< simulated time
-  double wallTimeS = 0;                    ///< elapsed wall-clock time
-  double settleTimeS = 0;                  ///< simulated time when the pour settled
-  double maxOverlapMm = 0;                 ///< deepest node penetration at the end
-  double meanOverlapMm = 0;                ///< mean deepest overlap of pair contacts, end
-  std::size_t contacts = 0;                ///< touching particle pairs at the end
-  std::size_t interpenetrations = 0;       ///< interpenetrating pairs at the end
-  double maxOverlapWallFraction = 0;       ///< deepest overlap / thinnest wall, end
-  DemCounters counters;                    ///< work done
-  std::vector<std::string> messages;       ///< chosen settings and warnings
+  DemStatus status = DemStatus::kTimeCap;   ///< how it ended
+  ParticleTable particles;                  ///< final centres, orientations, shape specs
+  double timeStepS = 0;                     ///< time step used
+  double contactTimeS = 0;                  ///< reference contact duration
+  double stiffnessNPerMm3 = 0;              ///< face stiffness used
+  double loadHeightMm = 0;                  ///< bed depth whose weight set the auto stiffness
+  double simulatedTimeS = 0;                ///< simulated time
+  double wallTimeS = 0;                     ///< elapsed wall-clock time
+  double settleTimeS = 0;                   ///< simulated time when the pour settled
+  double maxOverlapMm = 0;                  ///< deepest node penetration at the end
+  double meanOverlapMm = 0;                 ///< mean deepest overlap of pair contacts, end
+  std::size_t contacts = 0;                 ///< touching particle pairs at the end
+  std::size_t interpenetrations = 0;        ///< interpenetrating pairs at the end
+  double maxOverlapWallFraction = 0;        ///< deepest overlap / thinnest wall, end
+  double maxOverlapWallFractionRun = 0;     ///< the same, deepest over the run
+  std::uint64_t interpenetratingSteps = 0;  ///< steps with an interpenetrating pair
+  DemCounters counters;                     ///< work done
+  std::vector<std::string> messages;        ///< chosen settings and warnings
 };
 
 /// Pours scene.count particles in batches (on top of scene.initial), settles, taps, settles
