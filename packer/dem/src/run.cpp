@@ -486,10 +486,12 @@ DemResult runDem(const DemScene& scene, const DemOptions& requested, Progress& p
   result.maxOverlapWallFraction = sys.maxOverlapWallFraction();
   result.maxOverlapWallFractionRun = sys.runMaxOverlapWallFraction();
   result.interpenetratingSteps = sys.interpenetratingSteps();
-  // At the end, or once during the run past the medial surface (half the wall), where the
-  // level-set normal turns and pushes a node on through: either may have left a particle
-  // through another's wall.
-  if (result.interpenetrations > 0 || result.maxOverlapWallFractionRun > 0.5) {
+  // At the end, or once during the run at the medial surface, where the level-set normal
+  // turns and pushes a node on through: either may have left a particle through another's
+  // wall. A depth cannot pass half the thinnest wall (beyond it the far face is nearer), so
+  // "at" is within a tenth of that half: 0.45.
+  constexpr double kMedialWallFraction = 0.45;
+  if (result.interpenetrations > 0 || result.maxOverlapWallFractionRun >= kMedialWallFraction) {
     std::ostringstream m;
     m << "dem: " << result.interpenetrations
       << " particle pairs interpenetrate at the end (an overlap past "
