@@ -31,29 +31,4 @@ run() {  # name spec container voxel contact-voxel count
 }
 run rings ring:d=6,di=4.8,l=6 cylinder:d=48,h=150 0.2 0.3 "$rings"
 run trilobes trilobe:d=3,l=4.5 cylinder:d=24,h=100 0.15 0.15 "$trilobes"
-/usr/bin/python3 - "$out" "$threads" <<'EOF'
-import json, sys
-out, threads = sys.argv[1], int(sys.argv[2])
-res = {"command": "bench/dem/rings.sh", "threads": threads, "runs": {}}
-for name in ("rings", "trilobes"):
-    wall, cpu, rss = open(f"{out}/{name}.time").read().split()
-    load = [l.split() for l in open(f"{out}/{name}.load").read().splitlines()]
-    info = json.load(open(f"{out}/{name}.info.json"))
-    prov = info.get("provenance", {})
-    dem = prov.get("dem", {})
-    res["runs"][name] = {
-        "check": json.load(open(f"{out}/{name}.check.json")),
-        "command_line": prov.get("command_line"),
-        "status": prov.get("status"),
-        "wall_s": float(wall), "cpu_s": float(cpu), "max_rss_mib": int(rss) / 1024,
-        "load_start_end": load,
-        "dem": {k: dem.get(k) for k in ("interpenetrations", "max_overlap_wall_fraction",
-                                        "max_overlap_d", "mean_overlap_d", "contacts",
-                                        "simulated_time_s", "steps", "stiffness_n_mm3")},
-    }
-json.dump(res, open(f"{out}/dem_rings.json", "w"), indent=1)
-print(json.dumps({n: {"keep_min": r["check"]["keep"]["min"],
-                      "voidage": r["check"]["voidage"]["voidage"],
-                      "interpenetrations": r["dem"]["interpenetrations"],
-                      "wall_s": r["wall_s"]} for n, r in res["runs"].items()}, indent=1))
-EOF
+/usr/bin/python3 "$here/rings_summary.py" "$out" "$threads"
