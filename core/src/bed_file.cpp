@@ -252,9 +252,9 @@ class HeapCollections {
 
 // Checks every variable-length string element that `read` (H5Aread or H5Dread into the
 // opaque VlenRef type) yields against its heap collection, so that libhdf5's own read of
-// the same elements cannot loop or overrun.
-// libhdf5 allocates and zeroes (length x character size) bytes for each string it reads, with
-// the character size the file declares (a fuzzed bed declared 1.8 GB and took 19 GB).
+// the same elements cannot loop or overrun. The character size is checked first: libhdf5
+// allocates and zeroes (length x character size) bytes for each string it reads, with the
+// size the file declares (a fuzzed bed declared 1.8 GB and took 19 GB).
 template <class Read>
 void checkVlenStrings(const Ctx& ctx, hid_t obj, hid_t type, const std::string& what, std::size_t n,
                       Read read) {
@@ -335,7 +335,6 @@ hid_t nativeType<std::uint32_t>() {
   return H5T_NATIVE_UINT32;
 }
 
-// Opens a rank-3 integer volume and checks its type and shape against `lattice`.
 // Opens the dataset at `path`. A compact dataset keeps its data in its object header, and
 // libhdf5 1.10 copies points x element bytes out of it whatever it holds (a fuzzed bed's
 // /particles/shape held 0 bytes for its one 16-byte element: a memcpy from NULL in H5Dread),
@@ -368,6 +367,7 @@ Handle openDataset(const Ctx& ctx, hid_t file, const char* path) {
   return ds;
 }
 
+// Opens a rank-3 integer volume and checks its type and shape against `lattice`.
 Handle openVolume(const Ctx& ctx, hid_t file, const char* path, const Lattice& lattice,
                   bool requireUint8) {
   Handle ds = openDataset(ctx, file, path);
