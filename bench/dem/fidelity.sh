@@ -4,7 +4,9 @@
 #   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|voidage|all] [THREADS] [SEED] [FRICTIONS]
 # rcp:     5000 frictionless spheres d 3 mm in a 48 mm column (D/d 16), e 0.5, 0.3 mm
 #          voxels, poured, and poured + 5 taps; bulk voxel density >= 3 d from wall, floor and
-#          top, g(r) from the centres (bench/dem/bed_structure.py).
+#          top, g(r) from the centres (bench/dem/bed_structure.py). RCP_ARGS (environment)
+#          adds pack options to both beds and RCP_TAG a suffix to their names, e.g.
+#          RCP_ARGS="--target-overlap 0.001" RCP_TAG=_t0001.
 # voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
 #          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
@@ -60,8 +62,9 @@ if [[ $which == rcp || $which == all ]]; then
   # 5000 spheres of 14.14 mm^3 at ~0.62 fill ~63 mm of a 48 mm column.
   common=(--shape sphere:d=3 --container cylinder:d=48,h=110 --voxel-size 0.3 --count 5000
     --friction 0 --restitution 0.5 --max-time 8)
-  run rcp_poured 3 "${common[@]}"
-  run rcp_tapped 3 "${common[@]}" --tap-cycles 5
+  read -r -a extra <<<"${RCP_ARGS:-}"
+  run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
+  run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
 fi
 if [[ $which == voidage || $which == all ]]; then
   for mu in $frictions; do

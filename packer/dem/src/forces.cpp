@@ -211,10 +211,6 @@ void DemSystem::Impl::computeForces(double kick) {
     maxWallFraction = std::max(maxWallFraction, c.wallFraction);
     if (c.wallFraction > kInterpenetrationWallFraction) ++interpenetrations;
   }
-  // A passage through a wall is transient (the end state may hold no overlap at all), so
-  // the deepest overlap and the steps with an interpenetration are kept over the run.
-  runMaxWallFraction = std::max(runMaxWallFraction, maxWallFraction);
-  if (interpenetrations > 0) ++interpenetratingSteps;
   for (std::int64_t k = 0; k < nw; ++k) {  // a skipped sleeper's wall terms are zero
     const std::size_t i = liveAt(k);
     elastic += wallElastic[i];

@@ -90,6 +90,12 @@ void DemSystem::Impl::stepOnce() {
   if (4 * maxMove2 > skin * skin) rebuildNeighbours();
   if (diverged) return;
   computeForces(0.5 * dt);  // and the closing half kick
+  // A passage through a wall is transient (the end state may hold no overlap at all), so
+  // the deepest overlap and the steps with an interpenetration are kept over the run. Only
+  // the step's closing evaluation counts: the one after particles are added, and the
+  // all-awake measurement at the end, re-evaluate states that are not steps.
+  runMaxWallFraction = std::max(runMaxWallFraction, maxWallFraction);
+  if (interpenetrations > 0) ++interpenetratingSteps;
   const std::size_t integrated = sleepUpdate();
   ++counters.steps;
   counters.particleSteps += n;

@@ -206,8 +206,8 @@ struct DemSystem::Impl {
   std::uint64_t contactCount = 0;
   std::uint64_t interpenetrations = 0;      // pairs, last force evaluation
   double maxWallFraction = 0;               // pairs, last force evaluation
-  double runMaxWallFraction = 0;            // pairs, every force evaluation of this process
-  std::uint64_t interpenetratingSteps = 0;  // force evaluations with an interpenetrating pair
+  double runMaxWallFraction = 0;            // pairs, every step of this process
+  std::uint64_t interpenetratingSteps = 0;  // steps with an interpenetrating pair
   DemCounters counters;
 
   double rMaxMm = 0;      // largest bounding radius of the templates
