@@ -61,6 +61,14 @@ class IngestCommand final : public Command {
         ->capture_default_str();
     sub.add_flag("!--no-refine-column", o_.refineColumn,
                  "keep the voxel-level circle fit (no sub-voxel fit on the grey wall step)");
+    sub.add_option(
+           "--column-wall-mm", o_.columnWallMm,
+           "the column wall's thickness in mm when known (held in the sub-voxel wall "
+           "fit; a wall thinner than ~2.5 voxels is otherwise fitted too thick and the "
+           "radius too small; XMT-like walls with their own grey level only, not a signal-free "
+           "MRI wall); 0 = fitted")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     sub.add_option("--calibrate", o_.calibrationRuns,
                    "error budget: re-image the ingested bed N times (1..50) at the measured SNR, "
                    "blur and voxel size and report the density bias (provenance \"calibration\")")
@@ -96,6 +104,12 @@ class IngestCommand final : public Command {
     sub.add_flag("!--no-wall-blur-correction", o_.wallBlurCorrection,
                  "volume threshold: keep the grey values next to the column wall as imaged "
                  "(default: divide the wall's fitted blur profile out of them)");
+    sub.add_option("--volume-region", volumeRegion_,
+                   "volume threshold: aim the mean-intensity porosity over the bed's slices "
+                   "(bed: the headspace above it and a lid left out) or over every slice of the "
+                   "column (column)")
+        ->check(CLI::IsMember({"bed", "column"}))
+        ->capture_default_str();
     sub.add_option("--median-radius", o_.medianRadiusVoxels,
                    "median-box half-width in voxels (1..5)")
         ->check(CLI::Range(1, 5))
@@ -147,6 +161,7 @@ class IngestCommand final : public Command {
                  : denoise_ == "curvature"  ? DenoiseMethod::Curvature
                                             : DenoiseMethod::None;
     o_.n4 = bias_ == "n4";
+    o_.volumeOverBedSlices = volumeRegion_ == "bed";
     o_.noise = noise_ == "rician"     ? NoiseChoice::Rician
                : noise_ == "gaussian" ? NoiseChoice::Gaussian
                                       : NoiseChoice::Auto;
@@ -322,7 +337,7 @@ class IngestCommand final : public Command {
   std::int64_t slabPlanes_ = 0;
   std::string input_, output_;
   std::string void_ = "auto", threshold_ = "auto", column_ = "auto", denoise_ = "median",
-              bias_ = "none", noise_ = "auto";
+              bias_ = "none", noise_ = "auto", volumeRegion_ = "bed";
   bool json_ = false;
   std::uint64_t estimate_ = 0;      // of the in-memory pipeline, set before the voxels are read
   std::optional<bool> voidBright_;  // known from the options or the header

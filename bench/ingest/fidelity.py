@@ -5,14 +5,16 @@ of known beds, before (Otsu + voxel-level column circle) and after (the default 
 usage: fidelity.py VOXPACK WORKDIR OUT.json [--study sweep|diagnosis|deconv|all] [--quick]
                    [--deconv N]   (the sweep also runs `--deconvolve N`: variant after+deconv)
        fidelity.py VOXPACK WORKDIR OUT.json --case BED,VPD,SNR,BLUR,MODALITY[,SEED] [--diag]
-                   (--case may be repeated; --goal: the sweep's cases that carry a goal)
+                   (--case may be repeated; --goal: the sweep's cases that carry a goal,
+                   [--seeds 3,4,5] noise seeds of --goal, default 3; --diag: the diagnosis
+                   variants instead of after/before)
                    [--variants after,before,...] (run only these variants)
 
 Beds, packed once into WORKDIR by `voxpack pack --mode mc --seed 1` (the lattice of the bed
 file, 30 voxels per d, is the truth; small on purpose so that the whole sweep fits in
 minutes on 2 shared cores):
-  spheres    d 3 mm in a 15 mm column (D = 5 d), 12 mm of bed, 0.1 mm voxels
-  cylinders  the paper's pellets d 5.4 x l 3.8 mm in its 43.3 mm column, 16 mm of bed,
+  spheres    d 3 mm in a 15 mm column (D = 5 d), 24 mm of bed, 0.1 mm voxels
+  cylinders  the paper's pellets d 5.4 x l 3.8 mm in its 43.3 mm column, 32 mm of bed,
              0.18 mm voxels
 Each case: `voxpack phantom --voxel-size d/vpd --blur-mm b*voxel --snr S --seed 3` (one
 noise seed per case), then `voxpack ingest` per variant. Measured here with numpy on the
@@ -43,10 +45,13 @@ QUICK = "--quick" in ARGS
 os.makedirs(WORK, exist_ok=True)
 
 BEDS = {
-    "spheres": dict(d=3.0, shape="sphere:d=3", container="cylinder:d=15,h=14", fill=12.0,
+    # 24 mm of bed: a ROI of ~5 d (12 mm before 2026-12-06: a ROI of 1 d).
+    "spheres": dict(d=3.0, shape="sphere:d=3", container="cylinder:d=15,h=26", fill=24.0,
                     voxel=0.1),
-    "cylinders": dict(d=5.4, shape="cylinder:d=5.4,l=3.8", container="cylinder:d=43.3,h=18",
-                      fill=16.0, voxel=0.18),
+    # 32 mm of bed: the ROI (packed region less 1 d at each end) is ~3 d. The 16 mm
+    # bed used before 2026-12-06 left a 1.1 mm ROI (6 slices at 20 voxels per d).
+    "cylinders": dict(d=5.4, shape="cylinder:d=5.4,l=3.8", container="cylinder:d=43.3,h=34",
+                      fill=32.0, voxel=0.18),
     # The fidelity tests' bed (tests/ingest/test_fidelity.cpp), for --case only.
     "testbed": dict(d=2.0, shape="sphere:d=2", container="cylinder:d=10,h=9", fill=8.0,
                     voxel=0.1),
@@ -139,7 +144,7 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
         rep = json.loads(r.stdout)
         dens, prof = t.measure(seg)
         col = rep["column"]
-        rec = dict(study=study, bed=name, modality=modality, voxels_per_d=vpd, snr=snr,
+        rec = dict(study=study, bed=name, modality=modality, voxels_per_d=vpd, snr=snr, seed=seed,
                    blur_voxels=blur_vox, voxel_mm=voxel, variant=v, flags=flags,
                    truth_density=t.density, density=dens, bias=dens - t.density,
                    near_wall_rmse=float(np.sqrt(np.mean((prof - t.profile) ** 2))),
@@ -150,7 +155,7 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
                    threshold=rep["threshold"]["method"], quality=rep.get("quality"),
                    ingest_wall_s=secs)
         print(json.dumps({k: rec[k] for k in ("study", "bed", "modality", "voxels_per_d", "snr",
-                                                "blur_voxels", "variant", "bias",
+                                                "blur_voxels", "seed", "variant", "bias",
                                                 "near_wall_rmse", "radius_err_voxels")}),
               flush=True)
         recs.append(rec)
@@ -168,6 +173,9 @@ DIAG = STD + [
     ("after+gaussian_levels", ["--noise", "gaussian"]),
     ("after+no_median", ["--denoise", "none"]),
     ("before+no_median", BEFORE + ["--denoise", "none"]),
+    ("after+column_aim", ["--volume-region", "column"]),
+    # The phantom's wall is 4 truth voxels thick (voxpack phantom's default), known here.
+    ("after+wall_prior", lambda t: ["--column-wall-mm", f"{4 * BEDS[t.name]['voxel']:g}"]),
     ("after+no_cleanup", ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
     ("before+no_cleanup", BEFORE + ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
 ]
@@ -208,7 +216,8 @@ def goal_cases():
 
 ADHOC = [a.split(",") for k, a in zip(ARGS, ARGS[1:]) if k == "--case"]
 if "--goal" in ARGS:
-    ADHOC += [[str(x) for x in c] for c in goal_cases()]
+    seeds = ARGS[ARGS.index("--seeds") + 1].split(",") if "--seeds" in ARGS else ["3"]
+    ADHOC += [[str(x) for x in c] + [sd] for sd in seeds for c in goal_cases()]
 for c in ADHOC:  # ad-hoc cases: BED,VPD,SNR,BLUR,MODALITY[,SEED], variants after/before
     records += case(c[0], int(c[1]), float(c[2]), float(c[3]), c[4],
                     DIAG if "--diag" in ARGS else STD, "adhoc",

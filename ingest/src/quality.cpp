@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include "voxpack/ingest/ingest.hpp"
 #include "voxpack/ingest/resample.hpp"
@@ -51,27 +53,80 @@ double voxelsPerDiameter(const Grid<std::uint8_t>& ind, const Grid<std::uint8_t>
   return count > 0 ? 1.5 * total / count : 0.0;
 }
 
-double packedRegionDensity(const Bed& bed, std::int64_t* first, std::int64_t* last) {
-  const Lattice& l = bed.lattice();
+namespace {
+// Voxels inside the mask and solid voxels among them, per slice.
+void sliceCounts(const Grid<std::uint8_t>& ind, const Grid<std::uint8_t>* mask,
+                 std::vector<double>& in, std::vector<double>& solid) {
+  const Lattice& l = ind.lattice();
   const auto plane = static_cast<std::size_t>(l.ny() * l.nx());
-  std::vector<double> in(static_cast<std::size_t>(l.nz()), 0), solid(in.size(), 0);
+  in.assign(static_cast<std::size_t>(l.nz()), 0);
+  solid.assign(in.size(), 0);
   for (std::int64_t k = 0; k < l.nz(); ++k)
     for (std::size_t p = 0; p < plane; ++p) {
       const std::size_t o = static_cast<std::size_t>(k) * plane + p;
-      if (bed.mask && !(*bed.mask)[o]) continue;
+      if (mask && !(*mask)[o]) continue;
       in[static_cast<std::size_t>(k)] += 1;
-      solid[static_cast<std::size_t>(k)] += bed.indicator[o] == 0;
+      solid[static_cast<std::size_t>(k)] += ind[o] == 0;
     }
+}
+
+std::pair<std::int64_t, std::int64_t> halfPeakSlices(const std::vector<double>& in,
+                                                     const std::vector<double>& solid) {
   double peak = 0;
   for (std::size_t k = 0; k < in.size(); ++k)
     if (in[k] > 0) peak = std::max(peak, solid[k] / in[k]);
-  double a = 0, b = 0;
   std::int64_t k0 = -1, k1 = -1;
   for (std::size_t k = 0; k < in.size(); ++k) {
     if (!(in[k] > 0) || solid[k] / in[k] < 0.5 * peak) continue;
     if (k0 < 0) k0 = static_cast<std::int64_t>(k);
     k1 = static_cast<std::int64_t>(k);
   }
+  return {k0, k1};
+}
+}  // namespace
+
+std::pair<std::int64_t, std::int64_t> bedSlices(const Grid<std::uint8_t>& indicator,
+                                                const Grid<std::uint8_t>* mask) {
+  std::vector<double> in, solid;
+  sliceCounts(indicator, mask, in, solid);
+  std::vector<double> share(in.size(), 0);
+  double top = 0;
+  for (std::size_t k = 0; k < in.size(); ++k) {
+    share[k] = in[k] > 0 ? solid[k] / in[k] : 0;
+    top = std::max(top, share[k]);
+  }
+  // The typical slice of the bed: the median share over the slices that hold any bed
+  // (>= 0.1 of the densest), so neither the headspace nor a solid floor plate (share ~1)
+  // sets the level. The bed is the longest run at >= half of it; a run, not first..last,
+  // so that a plate at the far end of the headspace does not pull the headspace in.
+  std::vector<double> held;
+  for (double x : share)
+    if (x >= 0.1 * top && x > 0) held.push_back(x);
+  if (held.empty()) return {-1, -1};
+  const auto mid = held.begin() + static_cast<std::ptrdiff_t>(held.size() / 2);
+  std::nth_element(held.begin(), mid, held.end());
+  const double cut = 0.5 * *mid;
+  std::int64_t best0 = -1, best1 = -1, run0 = -1;
+  for (std::size_t k = 0; k <= share.size(); ++k) {
+    const bool in_run = k < share.size() && in[k] > 0 && share[k] >= cut;
+    if (in_run && run0 < 0) run0 = static_cast<std::int64_t>(k);
+    if (!in_run && run0 >= 0) {
+      const auto last = static_cast<std::int64_t>(k) - 1;
+      if (best0 < 0 || last - run0 > best1 - best0) {
+        best0 = run0;
+        best1 = last;
+      }
+      run0 = -1;
+    }
+  }
+  return {best0, best1};
+}
+
+double packedRegionDensity(const Bed& bed, std::int64_t* first, std::int64_t* last) {
+  std::vector<double> in, solid;
+  sliceCounts(bed.indicator, bed.mask ? &*bed.mask : nullptr, in, solid);
+  const auto [k0, k1] = halfPeakSlices(in, solid);
+  double a = 0, b = 0;
   if (k0 >= 0)
     for (auto k = static_cast<std::size_t>(k0); k <= static_cast<std::size_t>(k1); ++k) {
       a += in[k];
@@ -111,8 +166,9 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
   if (o.n4) peak = std::max(peak, (20 + raw) * n);  // its input copy and ITK's images
   if (o.resampleMm > 0.0) peak = std::max(peak, (4 + raw) * (n + m));
   // In the output lattice. Threshold choice: the image, raw, the preliminary indicator,
-  // the column core and (volume) the quantile's value copy. Segmentation: the image, the
-  // core, two indicators and the clean-up's marks (its search holds <= maxVoxels + 6).
+  // the column core (or, with no column, the bed's slices) and (volume) the quantile's
+  // value copy. Segmentation: the image, the core, two indicators and the clean-up's marks
+  // (its search holds <= maxVoxels + 6).
   const std::uint64_t choose = 4 + raw + 1 + 1 + (volume ? 4 : 0);
   const std::uint64_t segment = 4 + 1 + 1 + 1 + 1;
   std::uint64_t perOut = std::max(choose, segment);

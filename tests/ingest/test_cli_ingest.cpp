@@ -138,6 +138,39 @@ TEST(CliIngest, WallBlurAndMedianSwitches) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.h5"));
 }
 
+// --volume-region and --column-wall-mm reach the pipeline and its provenance; bad values
+// are usage errors.
+TEST(CliIngest, VolumeRegionAndColumnWallSwitches) {
+  TempDir dir;
+  const Bed truth = makeSphereBed(64, 28.0, 6.0, 0.25, 9);
+  writeBed(dir / "bed.h5", truth);
+  CliResult r =
+      runVoxpack({"-q", "phantom", (dir / "bed.h5").string(), "--modality", "xmt", "--snr", "10",
+                  "--blur-mm", "0.25", "--seed", "3", "-o", (dir / "ph.nrrd").string()});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto ingest = [&](std::vector<std::string> extra, int code = 0) {
+    std::vector<std::string> args{"ingest", (dir / "ph.nrrd").string(), "-o",
+                                  (dir / "seg.h5").string(), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const CliResult res = runVoxpack(args);
+    EXPECT_EQ(res.exitCode, code) << res.err;
+    return code == 0 ? nlohmann::json::parse(res.out) : nlohmann::json();
+  };
+  const auto base = ingest({});
+  EXPECT_TRUE(base["options"]["volume_over_bed_slices"].get<bool>());
+  EXPECT_DOUBLE_EQ(base["options"]["column_wall_mm"].get<double>(), 0.0);
+  const auto col = ingest({"--volume-region", "column", "--column-wall-mm", "0.5"});
+  EXPECT_FALSE(col["options"]["volume_over_bed_slices"].get<bool>());
+  EXPECT_TRUE(col["threshold"]["bed_slices"].is_null());
+  EXPECT_EQ(col["threshold"]["region"].get<std::string>().find("bed slices"), std::string::npos);
+  EXPECT_DOUBLE_EQ(col["options"]["column_wall_mm"].get<double>(), 0.5);
+  ASSERT_TRUE(col["column"]["found"].get<bool>());
+  ASSERT_TRUE(col["column"]["refined"].get<bool>());
+  EXPECT_NEAR(col["column"]["wall_thickness_mm"].get<double>(), 0.5, 1e-9);  // held
+  ingest({"--volume-region", "slab"}, 2);
+  ingest({"--column-wall-mm", "-1"}, 2);
+}
+
 TEST(CliIngest, ResampleAndExplicitColumn) {
   TempDir dir;
   const Grid<float> img = slabVolume(0.3);

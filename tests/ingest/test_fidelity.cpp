@@ -188,7 +188,14 @@ TEST(Fidelity, MriDensityRadiusAndWallProfileAt20VoxelsPerD) {
   EXPECT_EQ(rep["threshold"]["method"], "volume");
   EXPECT_TRUE(rep["threshold"].contains("mean_intensity_porosity"));
   EXPECT_EQ(rep["wall_blur_correction"]["applied"], true);
-  EXPECT_EQ(rep["threshold"]["region"], "column");
+  // Aimed over the bed's slices (the MC bed's loose top and the headspace left out).
+  EXPECT_EQ(rep["threshold"]["region"], "column, bed slices");
+  std::int64_t k0 = 0, k1 = 0;
+  packedRegionDensity(packedBed(), &k0, &k1);
+  EXPECT_LE(rep["threshold"]["bed_slices"]["first"].get<std::int64_t>(), k0 + 2);
+  EXPECT_GE(rep["threshold"]["bed_slices"]["last"].get<std::int64_t>(), k1 - 2);
+  EXPECT_LT(rep["threshold"]["bed_slices"]["last"].get<std::int64_t>(),
+            packedBed().lattice().nz() - 1);
   // The void level from the voxels deep in the void (Rician mean of 1000 at sigma 100:
   // 1005.0); the histogram's flank read 989 here.
   EXPECT_NEAR(rep["phases"]["void_level"].get<double>(), 1005.0, 5.0);
@@ -246,4 +253,90 @@ TEST(Fidelity, DeconvolutionRestoresTheNearWallProfileOnMri) {
   ASSERT_TRUE(cut.result.column.found);
   EXPECT_LE(cut.profileRmse, 0.03);
   EXPECT_NEAR(cut.density, cut.truthDensity, 0.005);
+}
+
+// At 10 voxels per d (0.2 mm voxels) a threshold aimed over the whole column left the bed
+// too solid (the blurred, curved interfaces of the bed need a different cut from the
+// headspace above it): aimed over the bed's slices the bias meets the 0.015 goal at
+// 10 voxels per d.
+TEST(Fidelity, VolumeThresholdAimedOverTheBedAt10VoxelsPerD) {
+  const Bed& truth = packedBed();
+  PhantomOptions po;
+  po.modality = Modality::Mri;
+  po.snr = 10.0;
+  po.voxelSizeMm = 2 * kVoxelMm;
+  po.blurMm = 2 * kVoxelMm;  // 1 voxel of the image
+  po.seed = 14;
+  const Grid<float> image = makePhantom(truth, po, 2);
+  // The ROI in mm: the truth's packed slices less one d at each end.
+  std::int64_t k0 = 0, k1 = 0;
+  packedRegionDensity(truth, &k0, &k1);
+  const Lattice& lt = truth.lattice();
+  const double z0 = lt.centerMm(k0, 0, 0).z() + 2.0, z1 = lt.centerMm(k1, 0, 0).z() - 2.0;
+  auto roiDensity = [&](const Bed& b) {
+    const Lattice& l = b.lattice();
+    std::int64_t a = -1, e = -1;
+    for (std::int64_t k = 0; k < l.nz(); ++k) {
+      const double z = l.centerMm(k, 0, 0).z();
+      if (z < z0 || z > z1) continue;
+      if (a < 0) a = k;
+      e = k;
+    }
+    return density(b, a, e);
+  };
+  const double t = roiDensity(truth);
+  double bias[2];
+  for (int aimAtBed : {1, 0}) {
+    IngestOptions io;
+    io.voidPolarity = VoidPolarity::Bright;
+    io.volumeOverBedSlices = aimAtBed != 0;
+    Volume v;
+    v.image = image;
+    v.info.source = "phantom";
+    const IngestResult r = segmentVolume(std::move(v), io, 2);
+    ASSERT_EQ(r.report["threshold"]["method"], "volume");
+    bias[aimAtBed] = roiDensity(r.bed) - t;
+    std::cout << "[ measured ] 10 voxels per d, aimed over the "
+              << (aimAtBed ? "bed's slices" : "whole column") << ": bias " << bias[aimAtBed]
+              << ", region " << r.report["threshold"]["region"] << '\n';
+  }
+  EXPECT_LT(std::abs(bias[1]), 0.015);
+  // Measured +0.0077 against +0.0130 (column-wide, the too-solid one).
+  EXPECT_GT(bias[0], bias[1] + 0.003);
+}
+
+// An XMT column wall thinner than the wall fit's 2.5-voxel floor (here 1.25 voxels at 10
+// voxels per d) is fitted too thick and so centred too far in: the radius reads short. Held
+// at its known thickness (--column-wall-mm) the radius error shrinks about threefold.
+TEST(Fidelity, KnownThinXmtWallGivesTheRadius) {
+  const Bed& truth = packedBed();
+  PhantomOptions po;
+  po.modality = Modality::Xmt;
+  po.snr = 10.0;
+  po.voxelSizeMm = 2 * kVoxelMm;
+  po.blurMm = 2 * kVoxelMm;
+  po.wallThicknessMm = 0.25;
+  po.seed = 15;
+  const Grid<float> image = makePhantom(truth, po, 2);
+  const double trueRadiusVox = maskGeometry(truth).radiusVox * kVoxelMm / po.voxelSizeMm;
+  double err[2];
+  for (int known : {0, 1}) {
+    IngestOptions io;
+    io.voidPolarity = VoidPolarity::Dark;
+    io.columnWallMm = known ? po.wallThicknessMm : 0.0;
+    Volume v;
+    v.image = image;
+    v.info.source = "phantom";
+    const IngestResult r = segmentVolume(std::move(v), io, 2);
+    ASSERT_TRUE(r.column.found && r.column.refined) << r.column.note;
+    err[known] = r.column.radiusMm / po.voxelSizeMm - trueRadiusVox;
+    std::cout << "[ measured ] wall " << (known ? "known" : "fitted") << ": radius error "
+              << err[known] << " voxel, wall " << r.column.wallThicknessMm / po.voxelSizeMm
+              << " voxel\n";
+  }
+  // Measured -0.545 fitted, +0.193 known: better by a factor of ~3, not yet the 0.1-voxel
+  // goal (the benchmark's beds read +0.05 and +0.11, docs/ingest.md).
+  EXPECT_LT(err[0], -0.3);
+  EXPECT_LT(std::abs(err[1]), 0.25);
+  EXPECT_LT(std::abs(err[1]), 0.5 * std::abs(err[0]));
 }

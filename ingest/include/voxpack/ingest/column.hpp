@@ -53,6 +53,9 @@ struct ColumnRefineOptions {
   int sectors = 16;      ///< angular sectors fitted on their own per slab, >= 6
   int iterations = 2;    ///< re-centre and re-fit passes, >= 1
   bool squared = false;  ///< fit M^2 (MRI magnitude, Rician noise, signal-free wall): unbiased
+  /// > 0: the wall's thickness in mm, known (held in the grey fit; not used when squared,
+  /// whose signal-free wall has no thickness to see); 0: fitted, >= 2.5 voxels.
+  double wallThicknessMm = 0.0;
 };
 
 /// Sub-voxel refinement on the grey `image` (after denoising): the radial profile about

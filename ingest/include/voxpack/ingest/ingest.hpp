@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/memory.hpp"
@@ -54,9 +55,15 @@ struct IngestOptions {
   double columnXMm = 0.0, columnYMm = 0.0, columnRadiusMm = 0.0;  ///< for Explicit, mm
   ColumnFitOptions columnFit;                                     ///< for Auto
   bool refineColumn = true;  ///< Auto: refine the fit on the grey wall step (sub-voxel)
+  /// > 0: the column wall's thickness in mm, known (a prior for the refinement; needed when
+  /// the wall is thinner than ~2.5 voxels); 0: fitted.
+  double columnWallMm = 0.0;
   /// Volume threshold with a refined column: divide the wall's blur out of the grey values
   /// next to it (correctWallBlur) and aim the porosity over the whole column.
   bool wallBlurCorrection = true;
+  /// Volume threshold: aim the porosity over the bed's slices only (bedSlices of the
+  /// preliminary segmentation), not the headspace above it or a lid; false: every slice.
+  bool volumeOverBedSlices = true;
   /// Volume threshold with the 7-point median: below this many voxels per particle diameter
   /// (measured on the preliminary segmentation) the threshold cuts the raw image instead
   /// (the median closes thin void throats). 0: always the median.
@@ -124,6 +131,12 @@ nlohmann::json calibrateDensityBias(const IngestResult& result, const IngestOpti
 /// the mask is empty.
 double packedRegionDensity(const Bed& bed, std::int64_t* firstSlice = nullptr,
                            std::int64_t* lastSlice = nullptr);
+
+/// The bed's slices {first, last}: the longest run of slices whose solid share inside
+/// `mask` (null: the whole slice) is at least half the median share of the slices holding
+/// any bed; {-1, -1} when there is none. Leaves out the headspace and a lid.
+std::pair<std::int64_t, std::int64_t> bedSlices(const Grid<std::uint8_t>& indicator,
+                                                const Grid<std::uint8_t>* mask);
 
 /// Sphere-equivalent particle diameter 6V/S in voxels = 1.5 x the mean solid chord along
 /// x, y, z inside `region` (null: everywhere); 0 when there is no solid chord.
