@@ -179,18 +179,18 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   timing["prelim_s"] = seconds(t0);
 
   t0 = std::chrono::steady_clock::now();
+  // The wall step: on M^2 of the raw image for a signal-free (MRI) wall, else on the image.
+  const auto refine = [&](const ColumnFit& c) {
+    const ColumnRefineOptions ro{.slabSlices = o.columnFit.slabSlices,
+                                 .squared = squaredWall,
+                                 .wallThicknessMm = o.columnWallMm};
+    return refineColumn(squaredWall ? raw : img, c, ro);
+  };
   ColumnFit column;
   if (o.column == ColumnMode::Auto) {
     progress.report("column fit", 0.0);
     column = fitColumn(prelim, o.columnFit);
-    if (column.found && o.refineColumn)
-      column = squaredWall ? refineColumn(raw, column,
-                                          {.slabSlices = o.columnFit.slabSlices,
-                                           .squared = true,
-                                           .wallThicknessMm = o.columnWallMm})
-                           : refineColumn(img, column,
-                                          {.slabSlices = o.columnFit.slabSlices,
-                                           .wallThicknessMm = o.columnWallMm});
+    if (column.found && o.refineColumn) column = refine(column);
     if (!column.found)
       progress.message("warning: no column found (" + column.note +
                        "); no mask written, the whole box is counted. If the image shows a "
@@ -207,13 +207,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     // The geometry is given; the wall step still tells the blur (the Rician edge
     // correction needs it). Only the blur is taken from the refinement.
     if (o.refineColumn) {
-      const ColumnFit seen = squaredWall ? refineColumn(raw, column,
-                                                        {.slabSlices = o.columnFit.slabSlices,
-                                                         .squared = true,
-                                                         .wallThicknessMm = o.columnWallMm})
-                                         : refineColumn(img, column,
-                                                        {.slabSlices = o.columnFit.slabSlices,
-                                                         .wallThicknessMm = o.columnWallMm});
+      const ColumnFit seen = refine(column);
       if (seen.refined) {
         column.blurMm = seen.blurMm;
         column.wallThicknessMm = seen.wallThicknessMm;

@@ -170,6 +170,19 @@ Bed cropped(const Bed& bed, std::int64_t halfVox) {
   return out;
 }
 
+// The test bed imaged at 10 voxels per d (0.2 mm), SNR 10, blur 1 image voxel; wallMm 0:
+// the phantom's default wall.
+PhantomOptions coarsePhantom(Modality modality, double wallMm, std::uint64_t seed) {
+  PhantomOptions po;
+  po.modality = modality;
+  po.snr = 10.0;
+  po.voxelSizeMm = 2 * kVoxelMm;
+  po.blurMm = 2 * kVoxelMm;
+  po.wallThicknessMm = wallMm;
+  po.seed = seed;
+  return po;
+}
+
 }  // namespace
 
 TEST(Fidelity, MriDensityRadiusAndWallProfileAt20VoxelsPerD) {
@@ -261,13 +274,7 @@ TEST(Fidelity, DeconvolutionRestoresTheNearWallProfileOnMri) {
 // 10 voxels per d.
 TEST(Fidelity, VolumeThresholdAimedOverTheBedAt10VoxelsPerD) {
   const Bed& truth = packedBed();
-  PhantomOptions po;
-  po.modality = Modality::Mri;
-  po.snr = 10.0;
-  po.voxelSizeMm = 2 * kVoxelMm;
-  po.blurMm = 2 * kVoxelMm;  // 1 voxel of the image
-  po.seed = 14;
-  const Grid<float> image = makePhantom(truth, po, 2);
+  const Grid<float> image = makePhantom(truth, coarsePhantom(Modality::Mri, 0.0, 14), 2);
   // The ROI in mm: the truth's packed slices less one d at each end.
   std::int64_t k0 = 0, k1 = 0;
   packedRegionDensity(truth, &k0, &k1);
@@ -310,13 +317,7 @@ TEST(Fidelity, VolumeThresholdAimedOverTheBedAt10VoxelsPerD) {
 // at its known thickness (--column-wall-mm) the radius error shrinks about threefold.
 TEST(Fidelity, KnownThinXmtWallGivesTheRadius) {
   const Bed& truth = packedBed();
-  PhantomOptions po;
-  po.modality = Modality::Xmt;
-  po.snr = 10.0;
-  po.voxelSizeMm = 2 * kVoxelMm;
-  po.blurMm = 2 * kVoxelMm;
-  po.wallThicknessMm = 0.25;
-  po.seed = 15;
+  const PhantomOptions po = coarsePhantom(Modality::Xmt, 0.25, 15);
   const Grid<float> image = makePhantom(truth, po, 2);
   const double trueRadiusVox = maskGeometry(truth).radiusVox * kVoxelMm / po.voxelSizeMm;
   double err[2];
