@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # DEM fidelity beyond the paper (docs/dem.md "Random close packing", "Mean voidage against
 # Benyahia & O'Neill"). Not run by ctest: each bed takes minutes.
-#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|voidage|all] [THREADS] [SEED] [FRICTIONS]
+#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|rcp-poured|voidage|all] [THREADS] [SEED] [FRICTIONS]
 # rcp:     5000 frictionless spheres d 3 mm in a 48 mm column (D/d 16), e 0.5, 0.3 mm
 #          voxels, poured, and poured + 5 taps; bulk voxel density >= 3 d from wall, floor and
 #          top, g(r) from the centres (bench/dem/bed_structure.py). RCP_ARGS (environment)
 #          adds pack options to both beds and RCP_TAG a suffix to their names, e.g.
-#          RCP_ARGS="--target-overlap 0.001" RCP_TAG=_t0001.
+#          RCP_ARGS="--target-overlap 0.001" RCP_TAG=_t0001. Every bed also gets its
+#          crystal-like fraction (bench/dem/crystal_order.py); KEEP_BEDS=1 keeps the bed files.
 # voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
 #          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
@@ -33,6 +34,7 @@ run() {  # NAME D_MM ARGS...
   "$vox" info --json "$out/$name.h5" >"$out/$name.info.json"
   "$build/bin/dem_bed_density" "$out/$name.h5" "$d" >"$out/$name.density.json"
   /usr/bin/python3 "$here/bed_structure.py" "$out/$name.h5" "$d" >"$out/$name.structure.json"
+  /usr/bin/python3 "$here/crystal_order.py" "$out/$name.h5" "$d" >"$out/$name.crystal.json"
   /usr/bin/python3 - "$out" "$name" "$*" <<'PY'
 import json, sys
 out, name, args = sys.argv[1:4]
@@ -47,24 +49,26 @@ res = {"name": name, "args": args, "status": info["provenance"]["status"],
        "simulated_time_s": dem["simulated_time_s"], "steps": dem["steps"],
        "mean_overlap_d": dem.get("mean_overlap_d"), "max_overlap_d": dem.get("max_overlap_d"),
        "dem_bed_density": json.load(open(b + ".density.json")),
+       "crystal_order": json.load(open(b + ".crystal.json")),
        "structure": {k: v for k, v in s.items() if k not in ("g", "g_r_d")},
        "g_r_d": s["g_r_d"], "g": s["g"]}
 json.dump(res, open(b + ".json", "w"), indent=1)
 st = res["structure"]
 print(f"{name}: {res['status']}, {res['particles']} spheres, {res['wall_s']:.0f} s wall, "
       f"bed phi {st['mean_phi_bed']:.4f}, bulk phi {st['bulk_phi']:.4f}, "
-      f"g peak {st['g_contact_peak']:.2f} at {st['g_contact_peak_r_d']:.3f} d", flush=True)
+      f"g peak {st['g_contact_peak']:.2f} at {st['g_contact_peak_r_d']:.3f} d, "
+      f"crystal-like {res['crystal_order']['bulk_crystal_fraction']:.3f}", flush=True)
 PY
-  rm -f "$out/$name.h5"
+  [[ -n ${KEEP_BEDS:-} ]] || rm -f "$out/$name.h5"
 }
 
-if [[ $which == rcp || $which == all ]]; then
+if [[ $which == rcp || $which == rcp-poured || $which == all ]]; then
   # 5000 spheres of 14.14 mm^3 at ~0.62 fill ~63 mm of a 48 mm column.
   common=(--shape sphere:d=3 --container cylinder:d=48,h=110 --voxel-size 0.3 --count 5000
     --friction 0 --restitution 0.5 --max-time 8)
   read -r -a extra <<<"${RCP_ARGS:-}"
   run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
-  run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
+  [[ $which == rcp-poured ]] || run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
 fi
 if [[ $which == voidage || $which == all ]]; then
   for mu in $frictions; do
@@ -83,7 +87,8 @@ fi
 import glob, json, sys
 out = sys.argv[1]
 rows = [json.load(open(p)) for p in sorted(glob.glob(f"{out}/*.json"))
-        if not p.endswith((".info.json", ".density.json", ".structure.json", "dem_fidelity.json"))]
+        if not p.endswith((".info.json", ".density.json", ".structure.json", ".crystal.json",
+                              "dem_fidelity.json"))]
 for r in rows:
     if r["name"].startswith("voidage"):
         nominal = float(r["name"].split("_r")[1].split("_")[0])
