@@ -23,6 +23,8 @@ import math
 import h5py
 import numpy as np
 
+from bed_column import column_geometry
+
 
 def main():
     ap = argparse.ArgumentParser()
@@ -40,18 +42,7 @@ def main():
         oz, oy, ox = f.attrs["origin_mm"]
         pos = f["particles/position_mm"][...]
     nz, ny, nx = ind.shape
-    # Axis and wall radius from the mask.
-    inside = mask.any(axis=0)
-    jj, ii = np.nonzero(inside)
-    y = oy + jj * sy
-    x = ox + ii * sx
-    cy, cx = y.mean(), x.mean()
-    radius = np.max(np.hypot(y - cy, x - cx)) + 0.5 * sx
-    floor = None
-    for k in range(nz):
-        if mask[k].any():
-            floor = oz + (k - 0.5) * sz
-            break
+    cx, cy, radius, floor = column_geometry(mask, (sz, sy, sx), (oz, oy, ox))
     top = pos[:, 2].max() + 0.5 * d
     zc = oz + np.arange(nz) * sz
     yy, xx = np.meshgrid(oy + np.arange(ny) * sy, ox + np.arange(nx) * sx, indexing="ij")

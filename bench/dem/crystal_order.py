@@ -24,19 +24,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.special import sph_harm
 
-
-def column(f):
-    mask = f["mask"][...]
-    sz, sy, sx = f.attrs["spacing_mm"]
-    oz, oy, ox = f.attrs["origin_mm"]
-    inside = mask.any(axis=0)
-    jj, ii = np.nonzero(inside)
-    y = oy + jj * sy
-    x = ox + ii * sx
-    cy, cx = y.mean(), x.mean()
-    radius = np.max(np.hypot(y - cy, x - cx)) + 0.5 * sx
-    k0 = next(k for k in range(mask.shape[0]) if mask[k].any())
-    return cx, cy, radius, oz + (k0 - 0.5) * sz
+from bed_column import column_geometry
 
 
 def main():
@@ -49,7 +37,8 @@ def main():
     d = a.d
     with h5py.File(a.bed, "r") as f:
         pos = f["particles/position_mm"][...]
-        cx, cy, radius, floor = column(f)
+        cx, cy, radius, floor = column_geometry(f["mask"][...], f.attrs["spacing_mm"],
+                                                f.attrs["origin_mm"])
     top = pos[:, 2].max() + 0.5 * d
     n = len(pos)
     tree = cKDTree(pos)

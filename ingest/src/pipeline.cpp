@@ -424,18 +424,11 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   timing["segment_s"] = seconds(t0);
 
   Bed& bed = res.bed;
-  if (mask) {
-    if (maskCut) {
-      mask.reset();
-      bed.mask = columnMask(lat, column);
-    } else {
-      bed.mask = std::move(*mask);
-      mask.reset();
-    }
-    region = &*bed.mask;
-  } else if (column.found) {
-    bed.mask = columnMask(lat, column);
-  }
+  const bool maskIsRegion = mask.has_value();
+  if (mask && !maskCut) bed.mask = std::move(*mask);
+  mask.reset();  // a mask cut to the bed's slices is freed first, then made whole again
+  if (!bed.mask && column.found) bed.mask = columnMask(lat, column);
+  if (maskIsRegion) region = &*bed.mask;
 
   ImageQuality q;
   q.voxelMm = voxel;
