@@ -110,6 +110,12 @@ class IngestCommand final : public Command {
                    "column (column)")
         ->check(CLI::IsMember({"bed", "column"}))
         ->capture_default_str();
+    sub.add_option("--phase-level", phaseLevel_,
+                   "volume threshold: each phase's level from the voxels deep inside it, their "
+                   "mean (mean) or a normal fitted to the tail away from the other phase (tail: "
+                   "immune to gaps the blur closed, wrong under a bias field)")
+        ->check(CLI::IsMember({"mean", "tail"}))
+        ->capture_default_str();
     sub.add_option("--median-radius", o_.medianRadiusVoxels,
                    "median-box half-width in voxels (1..5)")
         ->check(CLI::Range(1, 5))
@@ -162,6 +168,7 @@ class IngestCommand final : public Command {
                                             : DenoiseMethod::None;
     o_.n4 = bias_ == "n4";
     o_.volumeOverBedSlices = volumeRegion_ == "bed";
+    o_.phaseLevelTail = phaseLevel_ == "tail";
     o_.noise = noise_ == "rician"     ? NoiseChoice::Rician
                : noise_ == "gaussian" ? NoiseChoice::Gaussian
                                       : NoiseChoice::Auto;
@@ -337,7 +344,7 @@ class IngestCommand final : public Command {
   std::int64_t slabPlanes_ = 0;
   std::string input_, output_;
   std::string void_ = "auto", threshold_ = "auto", column_ = "auto", denoise_ = "median",
-              bias_ = "none", noise_ = "auto", volumeRegion_ = "bed";
+              bias_ = "none", noise_ = "auto", volumeRegion_ = "bed", phaseLevel_ = "mean";
   bool json_ = false;
   std::uint64_t estimate_ = 0;      // of the in-memory pipeline, set before the voxels are read
   std::optional<bool> voidBright_;  // known from the options or the header

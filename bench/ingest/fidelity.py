@@ -174,6 +174,7 @@ DIAG = STD + [
     ("after+no_median", ["--denoise", "none"]),
     ("before+no_median", BEFORE + ["--denoise", "none"]),
     ("after+column_aim", ["--volume-region", "column"]),
+    ("after+phase_tail", ["--phase-level", "tail"]),
     # The phantom's wall is 4 truth voxels thick (voxpack phantom's default), known here.
     ("after+wall_prior", lambda t: ["--column-wall-mm", f"{4 * BEDS[t.name]['voxel']:g}"]),
     ("after+no_cleanup", ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),

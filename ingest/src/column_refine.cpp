@@ -282,8 +282,22 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
     // A signal-free (squared, MRI) wall reads as the outside: its thickness is not in the
     // profile, and holding it there only lends the outside term to the step (measured:
     // +0.065 density at 10 voxels per d), so a known thickness serves the grey fit alone.
-    const Edge global =
+    Edge global =
         fitEdge(all, -2.0, 2.0, nullptr, o.squared, o.squared ? 0.0 : o.wallThicknessMm / sx);
+    // A grey wall fitted at the floor may be thinner than the fit resolves: its blurred
+    // bump fixes r + T/2, and the floor then puts the step up to kMinWall / 2 voxels too far
+    // in (-0.66 voxel at 10 voxels per d on a 1.33-voxel wall). The wall held at half the
+    // floor is taken instead when it fits the profile better; held there the radius is off
+    // by at most kMinWall / 4 = 0.625 voxel (docs/ingest.md, "An unresolved wall"). A known
+    // thickness (--column-wall-mm) removes the question.
+    bool unresolved = false;
+    if (!o.squared && !(o.wallThicknessMm > 0.0) && global.wall <= kMinWall + 1e-6) {
+      const Edge thin = fitEdge(all, -2.0, 2.0, nullptr, false, 0.5 * kMinWall);
+      if (thin.sse < global.sse) {
+        global = thin;
+        unresolved = true;
+      }
+    }
     // The step must stand out of the noise: bed-side level against the wall level.
     const double resid = std::sqrt(global.sse / std::max(1.0, global.weight));
     const double amplitude =
@@ -377,6 +391,7 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
     fit.sectors = sectorsUsed;
     fit.blurMm = global.sigma * sx;
     fit.wallThicknessMm = global.wall * sx;
+    fit.wallResolved = !unresolved;
     // The squared fit's levels are in M^2 (the MRI wall carries no signal): not kept.
     fit.wallLevel = o.squared ? 0.0 : global.coef[2];
     fit.outsideLevel = o.squared ? 0.0 : global.coef[3];
@@ -389,6 +404,10 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
                       cy + rv > static_cast<double>(ny) - 0.5;
   fit.note = "wall step fitted over " + std::to_string(fit.slabs) + " slab(s), " +
              std::to_string(fit.sectors) + " sector edges" +
+             (fit.refined && !fit.wallResolved
+                  ? ", wall thinner than 2.5 voxels (not resolved): held at 1.25, radius +-0.6 "
+                    "voxel; pass --column-wall-mm"
+                  : "") +
              (fit.touchesBorder ? ", column cut by the field of view" : "");
   return fit;
 }

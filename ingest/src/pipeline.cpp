@@ -71,6 +71,7 @@ nlohmann::json columnJson(const ColumnFit& c, ColumnMode mode) {
     if (c.refined) {
       j["blur_mm"] = finiteOrNull(c.blurMm);
       j["wall_thickness_mm"] = finiteOrNull(c.wallThicknessMm);
+      j["wall_resolved"] = c.wallResolved;
       j["sector_edges"] = c.sectors;
     }
   }
@@ -128,8 +129,11 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
           : NoiseModel::Gaussian;
   const bool squaredWall =
       model == NoiseModel::Rician && o.column != ColumnMode::None && o.refineColumn;
+  // The image quality (noise, SNR) is read from the raw image's phases; --calibrate images
+  // a phantom at that quality, so it needs them whatever the threshold.
+  const bool wantLevels = wantVolume || o.calibrationRuns > 0;
   Grid<float> raw;
-  if (wantVolume || squaredWall) raw = img;
+  if (wantLevels || squaredWall) raw = img;
 
   auto t0 = std::chrono::steady_clock::now();
   if (o.denoise == DenoiseMethod::Median) {
@@ -260,6 +264,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   const Grid<std::uint8_t>* region = core ? &*core : nullptr;
   std::string regionName = region ? "column core" : "whole image";
   PhaseLevels levels;
+  DeepLevel deepLevels[2];  // solid, void
   double interiorSigma = 0.0;
   MeanVoidFraction mvf;
   bool volumeUsed = false;
@@ -272,22 +277,32 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   nlohmann::json wallJson = nullptr;
   bool medianSkipped = false;
   std::string medianNote;
-  if (wantVolume) {
+  if (wantLevels) {
     // The noise sigma comes from a homogeneous region (deep in the void phase); the
     // histogram's flanks read it 10-35 % high under blur (docs/ingest.md).
     interiorSigma = phaseInteriorStats(raw, prelim, region, 1).sigma;
-    // Each phase's level is the mean deep inside it, where the blurred interfaces do not
-    // reach (3 blur sigma, at least 3 voxels): the histogram's peaks are pulled towards each
-    // other by the partial-volume voxels. An MRI signal-free phase has no mean to read
-    // there but sigma sqrt(pi/2); a phase without enough deep voxels keeps its peak.
+    // Each phase's level is read deep inside it, where the blurred interfaces do not reach
+    // (a Euclidean ball of 3 blur sigma, at least 3.5 voxels, so that the necks of pellets
+    // fused by the blur stay out): the histogram's peaks are pulled towards each other by
+    // the partial-volume voxels (docs/ingest.md, "The phase levels"). An MRI signal-free
+    // phase has no level to read there but sigma sqrt(pi/2); a phase without enough deep
+    // voxels keeps its peak.
     PhaseHints hints;
     hints.noiseSigma = interiorSigma;
-    const int deep = std::max(3, static_cast<int>(std::ceil(3.0 * blurVox)));
     for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
-      const InteriorStats st = phaseInteriorStats(raw, prelim, region, phase, deep);
-      if (st.pairs > 0) (phase ? hints.voidMean : hints.solidMean) = st.mean;
+      DeepLevelOptions dl;
+      dl.radius = std::max(3.5, 3.0 * blurVox);
+      dl.upper = (phase == 1) == voidBright;
+      dl.oneSided = o.phaseLevelTail;
+      dl.fallbackSigma = interiorSigma;
+      dl.threads = threads;
+      deepLevels[phase] = phaseDeepLevel(raw, prelim, region, phase, dl);
+      if (deepLevels[phase].radius > 0.0)
+        (phase ? hints.voidMean : hints.solidMean) = deepLevels[phase].level;
     }
     levels = fitPhaseLevels(raw, region, voidBright, model, &hints);
+  }
+  if (wantVolume) {
     // The 7-point median closes void throats one or two voxels wide: on coarse images
     // (measured: +0.016 density at 10 voxels per d) the threshold cuts the raw image instead.
     if (levels.clear && o.denoise == DenoiseMethod::Median && o.medianMinVoxelsPerD > 0.0) {
@@ -346,7 +361,17 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     // not, so aimed over the whole column it leaves the bed too solid (+0.02 at 10 voxels
     // per d, docs/ingest.md "Aimed over the bed's slices").
     if (levels.clear && o.volumeOverBedSlices) {
-      const auto [k0, k1] = bedSlices(prelim, region);
+      auto [k0, k1] = bedSlices(prelim, region);
+      // Its end slices are left out: a floor (or lid) reads as the solid phase (MRI) or
+      // brighter than the void (XMT), and its blur reaches 3 sigma into the bed, where the
+      // mean intensity counts it as solid (-0.011 void fraction over the bed's slices at 10
+      // voxels per d, blur 1 voxel: docs/ingest.md "Aimed over the bed's slices").
+      const std::int64_t trim =
+          std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(3.0 * blurVox)));
+      if (k0 >= 0 && (k1 - k0 + 1) - 2 * trim >= std::max<std::int64_t>(4, (k1 - k0 + 1) / 2)) {
+        k0 += trim;
+        k1 -= trim;
+      }
       if (k0 > 0 || (k1 >= 0 && k1 + 1 < lat.nz())) {
         // The slices are cut out of the region in place (no copy: this stage is the
         // pipeline's peak); a column mask cut so is made again for the bed file below.
@@ -476,6 +501,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                     {"column_wall_mm", o.columnWallMm},
                     {"wall_blur_correction", o.wallBlurCorrection},
                     {"volume_over_bed_slices", o.volumeOverBedSlices},
+                    {"phase_level", o.phaseLevelTail ? "tail" : "mean"},
                     {"median_min_voxels_per_d", o.medianMinVoxelsPerD},
                     {"max_speck_voxels", o.maxSpeckVoxels},
                     {"max_hole_voxels", o.maxHoleVoxels},
@@ -490,7 +516,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                       {"region", regionName},
                       {"bed_slices", bedSlicesJson},
                       {"porosity_segmented_region", finiteOrNull(achieved)}};
-  if (wantVolume) {
+  if (wantLevels) {
     rep["phases"] = {{"clear", levels.clear},
                      {"model", levels.model == NoiseModel::Rician ? "rician" : "gaussian"},
                      {"void_level", finiteOrNull(levels.voidLevel)},
@@ -499,6 +525,15 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                      {"solid_signal", finiteOrNull(levels.solidSignal)},
                      {"noise_sigma", finiteOrNull(levels.noiseSigma)},
                      {"note", levels.note}};
+    for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
+      const DeepLevel& d = deepLevels[phase];
+      rep["phases"][phase ? "void_deep" : "solid_deep"] = {{"level", finiteOrNull(d.level)},
+                                                           {"mean", finiteOrNull(d.mean)},
+                                                           {"sigma", finiteOrNull(d.sigma)},
+                                                           {"ball_radius_voxels", d.radius},
+                                                           {"voxels", d.voxels},
+                                                           {"slice_stride", d.sliceStride}};
+    }
     if (volumeUsed)
       rep["threshold"]["mean_intensity_porosity"] = {
           {"mean_intensity", finiteOrNull(mvf.meanIntensity)},

@@ -72,12 +72,15 @@ void sliceCounts(const Grid<std::uint8_t>& ind, const Grid<std::uint8_t>* mask,
 
 std::pair<std::int64_t, std::int64_t> halfPeakSlices(const std::vector<double>& in,
                                                      const std::vector<double>& solid) {
+  // A fully solid slice is a floor or a lid segmented with the bed (as compare's packed
+  // region has it): it would set the peak and join the far end's lid to the bed.
+  auto packing = [&](std::size_t k) { return in[k] > 0 && solid[k] / in[k] < 0.999; };
   double peak = 0;
   for (std::size_t k = 0; k < in.size(); ++k)
-    if (in[k] > 0) peak = std::max(peak, solid[k] / in[k]);
+    if (packing(k)) peak = std::max(peak, solid[k] / in[k]);
   std::int64_t k0 = -1, k1 = -1;
   for (std::size_t k = 0; k < in.size(); ++k) {
-    if (!(in[k] > 0) || solid[k] / in[k] < 0.5 * peak) continue;
+    if (!packing(k) || solid[k] / in[k] < 0.5 * peak) continue;
     if (k0 < 0) k0 = static_cast<std::int64_t>(k);
     k1 = static_cast<std::int64_t>(k);
   }
@@ -148,13 +151,16 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
   // The pipeline's stages, with what each holds per voxel (pipeline.cpp); the peak is the
   // largest. Read off the code and checked against the peak RSS of each pipeline at 256³
   // (docs/scale.md). The raw copy (4 B) is kept for the volume threshold and for the
-  // squared-wall column refinement of Rician (MRI) images.
+  // squared-wall column refinement of Rician (MRI) images, and for the image quality that
+  // --calibrate images its phantoms at.
   const bool volume =
       o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
   const bool maybeRician =
       o.noise == NoiseChoice::Rician || (o.noise == NoiseChoice::Auto && voidBright.value_or(true));
-  const std::uint64_t raw =
-      volume || (maybeRician && o.column != ColumnMode::None && o.refineColumn) ? 4 : 0;
+  const std::uint64_t raw = volume || o.calibrationRuns > 0 ||
+                                    (maybeRician && o.column != ColumnMode::None && o.refineColumn)
+                                ? 4
+                                : 0;
   // Reading: ITK's float buffer and ours.
   std::uint64_t peak = 8 * n;
   // Denoising, in the input lattice: the image and the filter's output (curvature: ITK's

@@ -169,6 +169,22 @@ TEST(CliIngest, VolumeRegionAndColumnWallSwitches) {
   EXPECT_NEAR(col["column"]["wall_thickness_mm"].get<double>(), 0.5, 1e-9);  // held
   ingest({"--volume-region", "slab"}, 2);
   ingest({"--column-wall-mm", "-1"}, 2);
+  // The phase levels: the deep voxels' mean by default, the tail fit on request; both
+  // reported per phase with the ball they were read in.
+  EXPECT_EQ(base["options"]["phase_level"], "mean");
+  const auto& sd = base["phases"]["solid_deep"];
+  EXPECT_DOUBLE_EQ(sd["level"].get<double>(), sd["mean"].get<double>());
+  EXPECT_DOUBLE_EQ(base["phases"]["solid_level"].get<double>(), sd["level"].get<double>());
+  EXPECT_GE(sd["ball_radius_voxels"].get<double>(), 2.0);
+  EXPECT_GT(sd["voxels"].get<std::size_t>(), 0u);
+  // The bed's slices leave its ends out (a floor's blur reads as solid), so they start
+  // after the image's first slice.
+  EXPECT_GT(base["threshold"]["bed_slices"]["first"].get<int>(), 0);
+  const auto tail = ingest({"--phase-level", "tail"});
+  EXPECT_EQ(tail["options"]["phase_level"], "tail");
+  EXPECT_NE(tail["phases"]["solid_deep"]["level"].get<double>(),
+            tail["phases"]["solid_deep"]["mean"].get<double>());
+  ingest({"--phase-level", "median"}, 2);
 }
 
 TEST(CliIngest, ResampleAndExplicitColumn) {

@@ -14,6 +14,7 @@
 #include "voxpack/ingest/image_io.hpp"
 #include "voxpack/ingest/ingest.hpp"
 #include "voxpack/ingest/phantom.hpp"
+#include "voxpack/ingest/phases.hpp"
 
 using namespace voxpack;
 using namespace voxpack::ingest;
@@ -312,32 +313,83 @@ TEST(Fidelity, VolumeThresholdAimedOverTheBedAt10VoxelsPerD) {
   EXPECT_GT(bias[0], bias[1] + 0.003);
 }
 
-// An XMT column wall thinner than the wall fit's 2.5-voxel floor (here 1.25 voxels at 10
-// voxels per d) is fitted too thick and so centred too far in: the radius reads short. Held
-// at its known thickness (--column-wall-mm) the radius error shrinks about threefold.
-TEST(Fidelity, KnownThinXmtWallGivesTheRadius) {
+// An XMT column wall thinner than the wall fit resolves (2.5 voxels; here 1 voxel at 10
+// voxels per d) fits any thickness up to that floor: at the floor (the fit before
+// 2026-12-07, reproduced by holding 2.5 voxels) the step sits too far in and the radius reads
+// short. Flagged as unresolved, the wall is held at the middle of the range (1.25 voxels),
+// and a known thickness (--column-wall-mm) holds the true one.
+TEST(Fidelity, ThinXmtWallIsHeldMidRangeOrAtItsKnownThickness) {
   const Bed& truth = packedBed();
-  const PhantomOptions po = coarsePhantom(Modality::Xmt, 0.25, 15);
+  const PhantomOptions po = coarsePhantom(Modality::Xmt, 0.2, 15);
   const Grid<float> image = makePhantom(truth, po, 2);
   const double trueRadiusVox = maskGeometry(truth).radiusVox * kVoxelMm / po.voxelSizeMm;
-  double err[2];
-  for (int known : {0, 1}) {
+  const char* names[3] = {"fitted (unresolved)", "held at the floor", "known"};
+  const double held[3] = {0.0, 2.5 * po.voxelSizeMm, po.wallThicknessMm};
+  double err[3];
+  for (int c = 0; c < 3; ++c) {
     IngestOptions io;
     io.voidPolarity = VoidPolarity::Dark;
-    io.columnWallMm = known ? po.wallThicknessMm : 0.0;
+    io.columnWallMm = held[c];
     Volume v;
     v.image = image;
     v.info.source = "phantom";
     const IngestResult r = segmentVolume(std::move(v), io, 2);
     ASSERT_TRUE(r.column.found && r.column.refined) << r.column.note;
-    err[known] = r.column.radiusMm / po.voxelSizeMm - trueRadiusVox;
-    std::cout << "[ measured ] wall " << (known ? "known" : "fitted") << ": radius error "
-              << err[known] << " voxel, wall " << r.column.wallThicknessMm / po.voxelSizeMm
-              << " voxel\n";
+    err[c] = r.column.radiusMm / po.voxelSizeMm - trueRadiusVox;
+    std::cout << "[ measured ] wall " << names[c] << ": radius error " << err[c] << " voxel, wall "
+              << r.column.wallThicknessMm / po.voxelSizeMm << " voxel\n";
+    if (c == 0) {
+      EXPECT_FALSE(r.column.wallResolved);
+      EXPECT_FALSE(r.report["column"]["wall_resolved"].get<bool>());
+      EXPECT_NEAR(r.column.wallThicknessMm / po.voxelSizeMm, 1.25, 1e-9);
+      EXPECT_NE(r.column.note.find("not resolved"), std::string::npos) << r.column.note;
+    } else {
+      EXPECT_TRUE(r.column.wallResolved);  // a held thickness is not flagged
+    }
   }
-  // Measured -0.545 fitted, +0.193 known: better by a factor of ~3, not yet the 0.1-voxel
-  // goal (the benchmark's beds read +0.05 and +0.11, docs/ingest.md).
-  EXPECT_LT(err[0], -0.3);
-  EXPECT_LT(std::abs(err[1]), 0.25);
-  EXPECT_LT(std::abs(err[1]), 0.5 * std::abs(err[0]));
+  // Measured: see the output above; the floor reads short by about half of (2.5 - 1) voxels.
+  EXPECT_LT(std::abs(err[0]), 0.3);
+  EXPECT_LT(err[1], -0.4);
+  EXPECT_LT(std::abs(err[2]), 0.3);
+}
+
+// The solid level of an XMT image at 10 voxels per d, read deep inside the solid of a plain
+// threshold. Pellets touching (or nearly) read as one solid once blurred, and the voxels of
+// their necks read low: the axis test ("solid along +-x, y, z") keeps many of them, a
+// Euclidean ball does not. Same bits for 1 and 2 threads; a strided sample (a 2000^3 scan
+// looks at a few slices) still reads the level.
+TEST(Fidelity, XmtSolidLevelIsReadInABallDeepInsideTheSolid) {
+  const Grid<float> image = makePhantom(packedBed(), coarsePhantom(Modality::Xmt, 0.0, 16), 2);
+  Grid<std::uint8_t> ind(image.lattice(), 0);
+  for (std::size_t n = 0; n < image.size(); ++n) ind[n] = image[n] <= 600.0f;  // void dark
+  const InteriorStats axis = phaseInteriorStats(image, ind, nullptr, 0, 2);
+  DeepLevelOptions o;
+  o.threads = 1;
+  const DeepLevel one = phaseDeepLevel(image, ind, nullptr, 0, o);
+  o.threads = 2;
+  const DeepLevel two = phaseDeepLevel(image, ind, nullptr, 0, o);
+  o.oneSided = true;
+  const DeepLevel tail = phaseDeepLevel(image, ind, nullptr, 0, o);
+  o.oneSided = false;
+  o.maxExamined = 12 * static_cast<std::size_t>(image.lattice().ny() * image.lattice().nx());
+  o.minVoxels = 300;
+  const DeepLevel strided = phaseDeepLevel(image, ind, nullptr, 0, o);
+  DeepLevelOptions ov;
+  ov.upper = false;
+  const DeepLevel pore = phaseDeepLevel(image, ind, nullptr, 1, ov);
+  std::cout << "[ measured ] solid level 1000: axis depth 2 mean " << axis.mean << " ("
+            << axis.pairs << " pairs), ball " << one.radius << " mean " << one.level << " ("
+            << one.voxels << " voxels), tail fit " << tail.level << ", every "
+            << strided.sliceStride << "th slice " << strided.level << " (" << strided.voxels
+            << "); void level 200: " << pore.level << '\n';
+  EXPECT_EQ(one.level, two.level);
+  EXPECT_EQ(one.voxels, two.voxels);
+  EXPECT_NEAR(one.level, 1000.0, 8.0);
+  EXPECT_LT(axis.mean, one.level - 10.0);
+  EXPECT_NEAR(tail.level, 1000.0, 8.0);
+  EXPECT_GT(strided.sliceStride, 1);
+  EXPECT_LT(strided.voxels, one.voxels);
+  EXPECT_NEAR(strided.level, 1000.0, 15.0);
+  EXPECT_NEAR(pore.level, 200.0, 5.0);
+  EXPECT_NEAR(one.sigma, 80.0, 8.0);  // the phase's own noise: (1000 - 200) / SNR 10
 }

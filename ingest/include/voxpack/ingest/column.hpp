@@ -27,6 +27,7 @@ struct ColumnFit {
   bool refined = false;          ///< true when the grey-level wall step refined the fit
   double blurMm = 0.0;           ///< Gaussian sigma of the wall's edge-spread function, mm
   double wallThicknessMm = 0.0;  ///< wall thickness seen in the grey profile, mm (0: unknown)
+  bool wallResolved = true;      ///< false: thinner than the fit resolves, thickness held
   int sectors = 0;               ///< slab x sector edge fits used by the refinement
   double wallLevel = 0.0;        ///< grey level of the wall (refined, grey-value fit; else 0)
   double outsideLevel = 0.0;     ///< grey level beyond the wall (refined, grey-value fit; else 0)

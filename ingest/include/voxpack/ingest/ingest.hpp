@@ -64,6 +64,10 @@ struct IngestOptions {
   /// Volume threshold: aim the porosity over the bed's slices only (bedSlices of the
   /// preliminary segmentation), not the headspace above it or a lid; false: every slice.
   bool volumeOverBedSlices = true;
+  /// Volume threshold: each phase's level from the far tail of its deep voxels (a normal of
+  /// the phase's noise fitted to it; gaps blur closed only ever lower it) instead of their
+  /// mean. Wrong under an intensity inhomogeneity (bias field, cupping): off by default.
+  bool phaseLevelTail = false;
   /// Volume threshold with the 7-point median: below this many voxels per particle diameter
   /// (measured on the preliminary segmentation) the threshold cuts the raw image instead
   /// (the median closes thin void throats). 0: always the median.
@@ -127,8 +131,8 @@ nlohmann::json calibrateDensityBias(const IngestResult& result, const IngestOpti
                                     int threads, Progress& progress = nullProgress());
 
 /// Packing density of `bed` over its packed slices: slices whose solid share in the mask
-/// is at least half the largest slice's (the headspace above a bed is left out). NaN when
-/// the mask is empty.
+/// is at least half the largest slice's (the headspace above a bed is left out), fully
+/// solid slices (a floor or lid) excluded. NaN when the mask is empty.
 double packedRegionDensity(const Bed& bed, std::int64_t* firstSlice = nullptr,
                            std::int64_t* lastSlice = nullptr);
 

@@ -5,6 +5,7 @@
 /// preserves it), and the threshold that reproduces that void fraction. Derivation in
 /// docs/ingest.md ("Volume-preserving threshold").
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <string>
@@ -58,6 +59,38 @@ struct InteriorStats {
 InteriorStats phaseInteriorStats(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
                                  const Grid<std::uint8_t>* region, std::uint8_t phase,
                                  int depth = 0);
+
+/// How phaseDeepLevel samples and fits.
+struct DeepLevelOptions {
+  double radius = 3.5;           ///< ball radius (voxels) tried first
+  double minRadius = 2.0;        ///< smallest ball tried (steps of 0.5 voxel)
+  std::size_t minVoxels = 2000;  ///< a ball is used when it holds this many voxels
+  bool oneSided = false;         ///< fit the far tail (else the plain mean)
+  bool upper = true;             ///< the far tail is above the level (the brighter phase)
+  double cut = 1.0;              ///< the tail starts cut sigma on the near side of the level
+  double fallbackSigma = 0.0;    ///< noise sigma when the phase has < 100 deep pairs
+  std::size_t maxExamined = std::size_t{1} << 23;  ///< voxels looked at (whole slices, strided)
+  int threads = 1;                                 ///< OpenMP threads (result independent)
+};
+
+/// The level of one phase of a preliminary segmentation, read deep inside it.
+struct DeepLevel {
+  double level = std::numeric_limits<double>::quiet_NaN();  ///< fitted level (image units)
+  double mean = std::numeric_limits<double>::quiet_NaN();   ///< plain mean of the deep voxels
+  double sigma = 0.0;      ///< the phase's noise (1.4826 MAD of x-pair differences / sqrt 2)
+  double radius = 0.0;     ///< ball radius used (voxels); 0: too few deep voxels
+  std::size_t voxels = 0;  ///< deep voxels used
+  std::size_t pairs = 0;   ///< disjoint deep x pairs behind sigma
+  int sliceStride = 1;     ///< every sliceStride-th slice was sampled
+};
+
+/// Level of `phase`: voxels whose Euclidean ball of `radius` (else a smaller one holding
+/// minVoxels) lies inside the phase and whose centre is in `region`; a normal with the
+/// phase's own sigma fitted to the tail away from the other phase (sub-voxel gaps only
+/// mix that phase in). Deterministic for any thread count.
+DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
+                         const Grid<std::uint8_t>* region, std::uint8_t phase,
+                         const DeepLevelOptions& options);
 
 /// Mean of a Rician variable of signal `a` and channel sigma `sigma`.
 double ricianMean(double a, double sigma);
