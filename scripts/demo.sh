@@ -73,8 +73,11 @@ fi
 # Otsu, not the default volume-preserving threshold: the bundled image has 6.7 voxels per d,
 # where the volume rule is not yet trusted (docs/ingest.md, fidelity sweep) and leaves the
 # noisy floor and lid slices 94-97 % solid, which hides the packed region from compare.
+# --calibrate 3: the segmented bed is imaged again by `phantom` at the SNR, blur and voxel
+# size measured on the reference and segmented the same way; the report shows the density
+# band that imaging + segmentation leave (docs/ingest.md, "Error budget").
 step ingest "$bin" --quiet --threads "$threads" ingest "$reference_image" \
-  -o "$out/reference_mri.h5" --void bright --column auto --threshold otsu
+  -o "$out/reference_mri.h5" --void bright --column auto --threshold otsu --calibrate 3
 step compare "$bin" --quiet --threads "$threads" compare --reference "$out/reference_mri.h5" \
   "$out/mc.h5" "$out/dem.h5" -o "$out/report" --trim-mm "$trim_mm" --s2-max-lag-mm 8
 echo "main job $((SECONDS - start)) s (packing to report)" | tee -a "$timings"

@@ -530,6 +530,14 @@ std::string formatTable(const Comparison& c) {
   col(cell(s), 11);
   for (int k = 0; k < 5; ++k) col("-", 11);
   o << '\n';
+  // The reference's ingest error budget, when it has one: the density it stands for once
+  // the segmentation bias measured on its phantoms is taken off.
+  const nlohmann::json band = calibrationBand(c.reference.calibration, m);
+  if (band.is_object())
+    o << "  calibrated: true density " << cell(band["density_band"][0].get<double>(), 4) << " - "
+      << cell(band["density_band"][1].get<double>(), 4) << " (ingest bias "
+      << cell(band["density_bias"].get<double>(), 4) << " on "
+      << band.value("n", nlohmann::json(0)).dump() << " phantoms at its SNR and blur)\n";
   for (std::size_t n = 0; n < c.candidates.size(); ++n) {
     const auto& e = c.candidates[n];
     const auto& d = c.distances[n];

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <numbers>
 #include <sstream>
 
@@ -283,6 +284,22 @@ TEST(Report, TableListsEveryBed) {
   EXPECT_NE(t.find("mc"), std::string::npos);
   EXPECT_NE(t.find("dem"), std::string::npos);
   EXPECT_NE(t.find("synthetic ref"), std::string::npos);
+  EXPECT_EQ(t.find("calibrated"), std::string::npos);  // no ingest calibration: no band
+}
+
+// The reference's ingest error budget (ingest --calibrate) is printed under it: its density
+// less the bias measured on its phantoms, +- one std.
+TEST(Report, TableShowsTheReferenceCalibrationBand) {
+  Comparison c = handMade();
+  c.reference.calibration = {{"density_bias", 0.02}, {"density_bias_std", 0.005}, {"n", 3}};
+  const std::string t = formatTable(c);
+  const double m = c.reference.stats["axial"]["mean"].get<double>();
+  const auto at = t.find("calibrated: true density ");
+  ASSERT_NE(at, std::string::npos) << t;
+  std::ostringstream lo;
+  lo << std::fixed << std::setprecision(4) << m - 0.025;
+  EXPECT_NE(t.find(lo.str(), at), std::string::npos) << t;
+  EXPECT_NE(t.find("on 3 phantoms", at), std::string::npos) << t;
 }
 
 TEST(PackedRegion, DropsHeadspaceAndSolidEndWalls) {
