@@ -10,7 +10,6 @@
 #include <cstring>
 #include <fstream>
 #include <mutex>
-#include <unordered_map>
 
 #include "hdf5_guard.hpp"
 #include "voxpack/core/atomic_file.hpp"
@@ -81,203 +80,6 @@ std::vector<hsize_t> datasetShape(hid_t ds) {
   return dims;
 }
 
-// ---- variable-length strings: the global heap is checked before libhdf5 reads it ----
-//
-// A variable-length string is stored as a 4-byte length and a global heap ID (the address
-// of a heap collection, "GCOL", and an object index). libhdf5 1.10 trusts the collection:
-// a free-space object of size 0 makes H5HG__cache_heap_deserialize loop forever (a fuzzed
-// bed hung `voxpack info` in H5Aread -> H5T__conv_vlen -> H5HG_read), an object larger
-// than the string's length overruns the conversion buffer, and an index past the objects
-// reads outside the collection's table. So the raw IDs are read first (through a
-// conversion to an opaque type that copies them out undecoded), and each collection is
-// parsed here the way libhdf5 parses it, with every size checked against the file, before
-// H5Aread/H5Dread may follow the IDs.
-
-// One raw element: what libhdf5 stores for a variable-length string.
-struct VlenRef {
-  std::uint32_t length = 0;   // bytes of the string
-  std::uint32_t index = 0;    // object index in the collection
-  std::uint64_t address = 0;  // collection address (relative to the superblock), 0 = none
-};
-constexpr const char* kVlenRefTag = "voxpack:vlen-string-ref";
-
-std::uint64_t decodeLe(const unsigned char* p, std::size_t n) {
-  std::uint64_t v = 0;
-  for (std::size_t k = n; k-- > 0;) v = (v << 8) | p[k];
-  return v;
-}
-
-// Conversion function from a stored variable-length string to the VlenRef opaque type:
-// copies the length, address and index out of the stored element without following them.
-herr_t vlenToRef(hid_t src, hid_t dst, H5T_cdata_t* cdata, size_t nelmts, size_t bufStride,
-                 size_t /*bkgStride*/, void* buf, void* /*bkg*/, hid_t /*dxpl*/) {
-  switch (cdata->command) {
-    case H5T_CONV_INIT: {
-      cdata->need_bkg = H5T_BKG_NO;
-      if (H5Tis_variable_str(src) <= 0 || H5Tget_class(dst) != H5T_OPAQUE ||
-          H5Tget_size(dst) != sizeof(VlenRef))
-        return -1;
-      char* tag = H5Tget_tag(dst);
-      const bool ours = tag && std::strcmp(tag, kVlenRefTag) == 0;
-      H5free_memory(tag);
-      // An 8..16-byte element: length (4), address (1..8), index (4).
-      const std::size_t s = H5Tget_size(src);
-      return ours && s > 8 && s <= 16 ? 0 : -1;
-    }
-    case H5T_CONV_CONV: {
-      const std::size_t s = H5Tget_size(src);
-      const std::size_t stride = bufStride ? bufStride : s;
-      auto* bytes = static_cast<unsigned char*>(buf);
-      // The source and destination sizes may differ (4-byte addresses): decode all first.
-      std::vector<VlenRef> refs(nelmts);
-      for (std::size_t n = 0; n < nelmts; ++n) {
-        const unsigned char* e = bytes + n * stride;
-        refs[n].length = static_cast<std::uint32_t>(decodeLe(e, 4));
-        refs[n].address = decodeLe(e + 4, s - 8);
-        refs[n].index = static_cast<std::uint32_t>(decodeLe(e + s - 4, 4));
-      }
-      const std::size_t out = bufStride ? bufStride : sizeof(VlenRef);
-      for (std::size_t n = 0; n < nelmts; ++n)
-        std::memcpy(bytes + n * out, &refs[n], sizeof(VlenRef));
-      return 0;
-    }
-    case H5T_CONV_FREE:
-      return 0;
-    default:
-      return -1;
-  }
-}
-
-// The opaque memory type that H5Aread/H5Dread fill with VlenRefs (conversion registered once).
-Handle vlenRefType() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    Handle vstr(H5Tcopy(H5T_C_S1), H5Tclose);
-    H5Tset_size(vstr.get(), H5T_VARIABLE);
-    Handle ref(H5Tcreate(H5T_OPAQUE, sizeof(VlenRef)), H5Tclose);
-    H5Tset_tag(ref.get(), kVlenRefTag);
-    H5Tregister(H5T_PERS_SOFT, "voxpack_vlen_ref", vstr.get(), ref.get(), vlenToRef);
-  });
-  Handle ref(H5Tcreate(H5T_OPAQUE, sizeof(VlenRef)), H5Tclose);
-  H5Tset_tag(ref.get(), kVlenRefTag);
-  return ref;
-}
-
-// The global heap collections of one file, each parsed and checked the way
-// H5HG__cache_heap_deserialize walks it: what would make that walk loop, or an object
-// lying outside its collection or the collection outside the file, is refused.
-class HeapCollections {
- public:
-  HeapCollections(const Ctx& ctx, hid_t obj) : ctx_(ctx) {
-    Handle file(H5Iget_file_id(obj), H5Fclose);
-    Handle fcpl(file.ok() ? H5Fget_create_plist(file.get()) : -1, H5Pclose);
-    size_t sizeofAddr = 0;
-    hsize_t fileSize = 0;
-    if (!fcpl.ok() || H5Pget_sizes(fcpl.get(), &sizeofAddr, &sizeofSize_) < 0 ||
-        H5Pget_userblock(fcpl.get(), &base_) < 0 || H5Fget_filesize(file.get(), &fileSize) < 0)
-      ctx.format("cannot read the file's address sizes");
-    if (sizeofSize_ < 1 || sizeofSize_ > 8) ctx.format("unsupported HDF5 length size");
-    fileSize_ = fileSize;
-    const ssize_t nameLen = H5Fget_name(file.get(), nullptr, 0);
-    std::string name(static_cast<std::size_t>(std::max<ssize_t>(nameLen, 0)), '\0');
-    if (nameLen <= 0 || H5Fget_name(file.get(), name.data(), name.size() + 1) < 0)
-      ctx.io("cannot name the open file");
-    in_.open(name, std::ios::binary);
-    if (!in_) ctx.io("cannot open for reading");
-  }
-
-  // The size of each object of the collection at `address`, by index (-1: no object).
-  const std::vector<std::int64_t>& objectSizes(std::uint64_t address) {
-    auto it = parsed_.find(address);
-    if (it == parsed_.end()) it = parsed_.emplace(address, parse(address)).first;
-    return it->second;
-  }
-
- private:
-  std::vector<std::int64_t> parse(std::uint64_t address) {
-    const std::string where = "global heap collection at " + std::to_string(address);
-    const std::uint64_t header = 8 + sizeofSize_;     // "GCOL", version, 3 reserved, size
-    const std::uint64_t objHeader = 8 + sizeofSize_;  // index, refcount, 4 reserved, size
-    if (address > fileSize_ || base_ > fileSize_ - address || fileSize_ - address - base_ < header)
-      ctx_.format(where + " lies outside the file");
-    const std::uint64_t start = base_ + address;
-    std::vector<unsigned char> head(header);
-    in_.clear();
-    in_.seekg(static_cast<std::streamoff>(start));
-    in_.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(header));
-    if (!in_ || std::memcmp(head.data(), "GCOL", 4) != 0 || head[4] != 1)
-      ctx_.format(where + " has no valid signature");
-    const std::uint64_t size = decodeLe(head.data() + 8, sizeofSize_);
-    // libhdf5 allocates the declared size before it reads; voxpack's strings are small.
-    constexpr std::uint64_t kMaxCollection = std::uint64_t{256} << 20;
-    if (size < header || size > fileSize_ - start || size > kMaxCollection)
-      ctx_.format(where + " declares " + std::to_string(size) +
-                  " bytes, beyond the end of the file or the limit of 256 MiB");
-    std::vector<unsigned char> chunk(static_cast<std::size_t>(size));
-    in_.seekg(static_cast<std::streamoff>(start));
-    in_.read(reinterpret_cast<char*>(chunk.data()), static_cast<std::streamsize>(size));
-    if (!in_) ctx_.io("cannot read " + where);
-
-    std::vector<std::int64_t> sizes;
-    std::uint64_t p = header;
-    while (p < size) {
-      if (p + objHeader > size) break;  // too small for an object: trailing free space
-      const unsigned char* o = chunk.data() + p;
-      const auto idx = static_cast<std::size_t>(decodeLe(o, 2));
-      const std::uint64_t objSize = decodeLe(o + 8, sizeofSize_);
-      // Object 0 is the free space, whose size includes its header and is not padded;
-      // libhdf5 steps by it, so a size of 0 would never advance.
-      const std::uint64_t need = objSize > size ? size
-                                 : idx > 0      ? objHeader + ((objSize + 7) / 8) * 8
-                                                : objSize;
-      if (objSize > size || need == 0 || need > size - p)
-        ctx_.format(where + ": object " + std::to_string(idx) + " of " + std::to_string(objSize) +
-                    " bytes does not fit the collection");
-      if (idx > 0) {
-        if (sizes.size() <= idx) sizes.resize(idx + 1, -1);
-        sizes[idx] = static_cast<std::int64_t>(objSize);
-      }
-      p += need;
-    }
-    return sizes;
-  }
-
-  const Ctx& ctx_;
-  size_t sizeofSize_ = 0;
-  hsize_t base_ = 0;
-  std::uint64_t fileSize_ = 0;
-  std::ifstream in_;
-  std::unordered_map<std::uint64_t, std::vector<std::int64_t>> parsed_;
-};
-
-// Checks every variable-length string element that `read` (H5Aread or H5Dread into the
-// opaque VlenRef type) yields against its heap collection, so that libhdf5's own read of
-// the same elements cannot loop or overrun. The character size is checked first: libhdf5
-// allocates and zeroes (length x character size) bytes for each string it reads, with the
-// size the file declares (a fuzzed bed declared 1.8 GB and took 19 GB).
-template <class Read>
-void checkVlenStrings(const Ctx& ctx, hid_t obj, hid_t type, const std::string& what, std::size_t n,
-                      Read read) {
-  Handle base(H5Tget_super(type), H5Tclose);
-  if (!base.ok() || H5Tget_size(base.get()) != 1)
-    ctx.format(what + " is not a string of one-byte characters");
-  const Handle refType = vlenRefType();
-  std::vector<VlenRef> refs(n);
-  if (read(refType.get(), refs.data()) < 0)
-    ctx.format("cannot read the string references of " + what);
-  HeapCollections heaps(ctx, obj);
-  for (const VlenRef& r : refs) {
-    if (r.address == 0) continue;  // a null string: libhdf5 reads nothing
-    const auto& sizes = heaps.objectSizes(r.address);
-    if (r.index == 0 || r.index >= sizes.size() || sizes[r.index] < 0)
-      ctx.format(what + " refers to global heap object " + std::to_string(r.index) +
-                 ", which does not exist");
-    if (static_cast<std::uint64_t>(sizes[r.index]) != r.length)
-      ctx.format(what + " declares a string of " + std::to_string(r.length) +
-                 " bytes stored in a heap object of " + std::to_string(sizes[r.index]));
-  }
-}
-
 std::string readStringAttr(const Ctx& ctx, hid_t obj, const char* name) {
   Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
   if (!attr.ok()) ctx.format(std::string("cannot open attribute ") + name);
@@ -291,8 +93,8 @@ std::string readStringAttr(const Ctx& ctx, hid_t obj, const char* name) {
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), H5T_VARIABLE);
     H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    checkVlenStrings(ctx, obj, type.get(), std::string("attribute ") + name, 1,
-                     [&](hid_t t, void* buf) { return H5Aread(attr.get(), t, buf); });
+    hdf5guard::checkVlenStrings(obj, type.get(), ctx.file, std::string("attribute ") + name, 1,
+                                [&](hid_t t, void* buf) { return H5Aread(attr.get(), t, buf); });
     char* s = nullptr;
     if (H5Aread(attr.get(), mem.get(), &s) < 0) ctx.format(std::string("cannot read ") + name);
     std::string out = s ? s : "";
@@ -482,7 +284,7 @@ std::vector<std::string> readStrings(const Ctx& ctx, hid_t file, const char* pat
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
     H5Tset_size(mem.get(), H5T_VARIABLE);
     H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
-    checkVlenStrings(ctx, file, type.get(), path, n, [&](hid_t t, void* buf) {
+    hdf5guard::checkVlenStrings(file, type.get(), ctx.file, path, n, [&](hid_t t, void* buf) {
       return H5Dread(ds.get(), t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
     });
     std::vector<char*> ptrs(n, nullptr);

@@ -9,6 +9,8 @@
 
 #include <hdf5.h>
 
+#include <cstddef>
+#include <functional>
 #include <string>
 
 namespace voxpack::hdf5guard {
@@ -26,6 +28,14 @@ void checkAttributeMessages(hid_t obj, const std::string& file, const std::strin
 bool readChunksChecked(hid_t ds, hid_t memType, int rank, const hsize_t* start,
                        const hsize_t* count, void* out, bool mpio, const std::string& file,
                        const std::string& what);
+
+/// Checks every variable-length string element that `read` (H5Aread or H5Dread of `obj`'s
+/// `n` elements into the memory type it is given) yields against its global heap
+/// collection, so that libhdf5's own read of them cannot loop or overrun; throws
+/// FormatError("FILE: ...") naming `what`. The character size is checked first: libhdf5
+/// allocates (length x character size) bytes per string with the size the file declares.
+void checkVlenStrings(hid_t obj, hid_t type, const std::string& file, const std::string& what,
+                      std::size_t n, const std::function<herr_t(hid_t, void*)>& read);
 
 /// The name and id of the first filter of `ds`'s pipeline that this libhdf5 cannot decode
 /// (e.g. h5py's lzf, "lzf (id 32000)"); empty when every filter is available.
