@@ -107,9 +107,11 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   const auto cap = static_cast<std::uint16_t>(r2max + 1);
   const std::int64_t reach = static_cast<std::int64_t>(std::floor(o.radius));
 
-  // Slices in a fixed stride so that at most maxExamined voxels are looked at: the samples
-  // (<= 5 B per examined voxel, below the 4 B per voxel of the histogram's value copy that
-  // follows in the pipeline) and the time stay bounded on a 2000^3 scan.
+  // Slices in a fixed stride so that at most maxExamined voxels are looked at, which bounds
+  // the time on a 2000^3 scan and the samples: 8 B per deep voxel and per deep pair, with
+  // deep voxels well under half of those examined, so under the 4 B per voxel that the
+  // memory estimate holds for the histogram's value copy (made after this, in
+  // fitPhaseLevels).
   std::size_t perSlice = static_cast<std::size_t>(ny * nx);
   const std::size_t want = std::max<std::size_t>(o.maxExamined, perSlice);
   const std::int64_t stride = std::max<std::int64_t>(
