@@ -46,17 +46,13 @@ std::vector<Offset> ballOffsets(int r2) {
   return out;
 }
 
-// One sampled deep voxel: its reading and the squared distance of its nearest voxel of
-// another phase (or of the box's edge), capped at the largest ball tested + 1.
-struct Sample {
-  float value;
-  std::uint16_t clear2;
-};
-
-// One disjoint x pair (i even, i + 1) of deep voxels: the difference and the smaller clear2.
-struct PairSample {
-  float diff;
-  std::uint16_t clear2;
+// The deep voxels of one sampled slice, as parallel arrays (5 B each, no padding): the
+// reading and the squared distance of the nearest voxel of another phase (or of the box's
+// edge), capped at the largest ball tested + 1; and per disjoint x pair (i even, i + 1) of
+// deep voxels the difference and the smaller of the two distances.
+struct SliceSamples {
+  std::vector<float> value, diff;
+  std::vector<std::uint8_t> clear2, pairClear2;
 };
 
 // The mean of a normal N(mu, s^2) truncated to x > c is mu + s lambda((c - mu) / s) with
@@ -98,35 +94,34 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
                          const DeepLevelOptions& o) {
   if (indicator.size() != image.size() || (region && region->size() != image.size()))
     throw InputError("phase level: image, indicator and region differ in size");
-  if (!(o.radius > 0.0) || !(o.minRadius > 0.0) || o.minRadius > o.radius)
-    throw InputError("phase level: need 0 < min radius <= radius");
+  if (!(o.radius > 0.0) || !(o.minRadius > 0.0) || o.minRadius > o.radius || o.radius > 15.0)
+    throw InputError("phase level: need 0 < min radius <= radius <= 15 voxels");
   const Lattice& l = image.lattice();
   const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
   const int r2max = static_cast<int>(std::floor(o.radius * o.radius));
   const std::vector<Offset> ball = ballOffsets(r2max);
-  const auto cap = static_cast<std::uint16_t>(r2max + 1);
+  const auto cap = static_cast<std::uint8_t>(r2max + 1);  // <= 226
   const std::int64_t reach = static_cast<std::int64_t>(std::floor(o.radius));
 
   // Slices in a fixed stride so that at most maxExamined voxels are looked at, which bounds
-  // the time on a 2000^3 scan and the samples: 8 B per deep voxel and per deep pair, with
-  // deep voxels well under half of those examined, so under the 4 B per voxel that the
-  // memory estimate holds for the histogram's value copy (made after this, in
-  // fitPhaseLevels).
+  // the time on a 2000^3 scan and the samples: at the peak 5 B per deep voxel and pair
+  // stored and 4 B copied for the fit, with a phase's deep voxels a third or less of those
+  // examined, about the 4 B per voxel that the memory estimate holds for the histogram's
+  // value copy (made after this, in fitPhaseLevels).
   std::size_t perSlice = static_cast<std::size_t>(ny * nx);
   const std::size_t want = std::max<std::size_t>(o.maxExamined, perSlice);
   const std::int64_t stride = std::max<std::int64_t>(
       1, static_cast<std::int64_t>((static_cast<std::size_t>(nz) * perSlice + want - 1) / want));
   const std::int64_t slices = (nz + stride - 1) / stride;
-  std::vector<std::vector<Sample>> perK(static_cast<std::size_t>(slices));
-  std::vector<std::vector<PairSample>> pairK(static_cast<std::size_t>(slices));
+  std::vector<SliceSamples> perK(static_cast<std::size_t>(slices));
 
   // Squared distance to the nearest voxel not of the phase, capped (the ball's edge).
-  auto clearance = [&](std::int64_t k, std::int64_t j, std::int64_t i) -> std::uint16_t {
+  auto clearance = [&](std::int64_t k, std::int64_t j, std::int64_t i) -> std::uint8_t {
     for (const Offset& d : ball) {
       const std::int64_t z = k + d.dz, y = j + d.dy, x = i + d.dx;
       if (z < 0 || y < 0 || x < 0 || z >= nz || y >= ny || x >= nx)
-        return static_cast<std::uint16_t>(d.d2);
-      if (indicator(z, y, x) != phase) return static_cast<std::uint16_t>(d.d2);
+        return static_cast<std::uint8_t>(d.d2);
+      if (indicator(z, y, x) != phase) return static_cast<std::uint8_t>(d.d2);
     }
     return cap;
   };
@@ -137,17 +132,21 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   for (std::int64_t s = 0; s < slices; ++s) {
     const std::int64_t k = s * stride;
     if (k < reach || k >= nz - reach) continue;
-    std::vector<Sample>& out = perK[static_cast<std::size_t>(s)];
-    std::vector<PairSample>& pairs = pairK[static_cast<std::size_t>(s)];
+    SliceSamples& out = perK[static_cast<std::size_t>(s)];
     for (std::int64_t j = reach; j < ny - reach; ++j) {
-      std::uint16_t prev = 0;  // clear2 of (k, j, i - 1) when i is odd, else 0
+      std::uint8_t prev = 0;  // clear2 of (k, j, i - 1) when i is odd, else 0
       for (std::int64_t i = 0; i < nx; ++i) {
         const std::size_t off = l.offset(k, j, i);
-        std::uint16_t c2 = 0;
+        std::uint8_t c2 = 0;
         if ((!region || (*region)[off]) && indicator[off] == phase) c2 = clearance(k, j, i);
-        if (c2 >= minClear2) out.push_back({image[off], c2});
-        if (i % 2 == 1 && c2 >= minClear2 && prev >= minClear2)
-          pairs.push_back({image[off] - image[off - 1], std::min(prev, c2)});
+        if (c2 >= minClear2) {
+          out.value.push_back(image[off]);
+          out.clear2.push_back(c2);
+        }
+        if (i % 2 == 1 && c2 >= minClear2 && prev >= minClear2) {
+          out.diff.push_back(image[off] - image[off - 1]);
+          out.pairClear2.push_back(std::min(prev, c2));
+        }
         prev = c2;
       }
     }
@@ -158,30 +157,41 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   // The largest ball (radius, radius - 0.5, ... >= minRadius) that holds minVoxels.
   for (double rad = o.radius; rad >= o.minRadius - 1e-9; rad -= 0.5) {
     const int need = static_cast<int>(std::floor(rad * rad)) + 1;
-    std::vector<float> v;
-    for (const auto& slice : perK)
-      for (const Sample& x : slice)
-        if (x.clear2 >= need) v.push_back(x.value);
-    if (v.size() < o.minVoxels) continue;
-    r.voxels = v.size();
-    r.radius = rad;
+    std::size_t count = 0;
     double sum = 0.0;
-    for (float x : v) sum += x;
-    r.mean = sum / static_cast<double>(v.size());
-    // The phase's own noise: 1.4826 MAD of the pair differences about 0, / sqrt 2.
-    std::vector<double> diff;
-    for (const auto& slice : pairK)
-      for (const PairSample& p : slice)
-        if (p.clear2 >= need) diff.push_back(std::abs(static_cast<double>(p.diff)));
-    r.pairs = diff.size();
-    if (diff.size() >= 100) {
-      const auto mid = diff.begin() + static_cast<std::ptrdiff_t>(diff.size() / 2);
-      std::nth_element(diff.begin(), mid, diff.end());
-      r.sigma = 1.4826 * *mid / std::numbers::sqrt2;
+    for (const auto& slice : perK)
+      for (std::size_t n = 0; n < slice.value.size(); ++n)
+        if (slice.clear2[n] >= need) {
+          ++count;
+          sum += slice.value[n];
+        }
+    if (count < o.minVoxels) continue;
+    r.voxels = count;
+    r.radius = rad;
+    r.mean = sum / static_cast<double>(count);
+    {  // The phase's own noise: 1.4826 MAD of the pair differences about 0, / sqrt 2.
+      std::vector<float> diff;
+      for (const auto& slice : perK)
+        for (std::size_t n = 0; n < slice.diff.size(); ++n)
+          if (slice.pairClear2[n] >= need) diff.push_back(std::abs(slice.diff[n]));
+      r.pairs = diff.size();
+      if (diff.size() >= 100) {
+        const auto mid = diff.begin() + static_cast<std::ptrdiff_t>(diff.size() / 2);
+        std::nth_element(diff.begin(), mid, diff.end());
+        r.sigma = 1.4826 * static_cast<double>(*mid) / std::numbers::sqrt2;
+      }
     }
+    if (!o.oneSided) {
+      r.level = r.mean;
+      return r;
+    }
+    std::vector<float> v;
+    v.reserve(count);
+    for (const auto& slice : perK)
+      for (std::size_t n = 0; n < slice.value.size(); ++n)
+        if (slice.clear2[n] >= need) v.push_back(slice.value[n]);
     const double sigma = r.sigma > 0.0 ? r.sigma : o.fallbackSigma;
-    r.level = o.oneSided && sigma > 0.0 ? truncatedNormalLevel(std::move(v), sigma, o.cut, o.upper)
-                                        : r.mean;
+    r.level = sigma > 0.0 ? truncatedNormalLevel(std::move(v), sigma, o.cut, o.upper) : r.mean;
     return r;
   }
   return r;

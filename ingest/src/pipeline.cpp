@@ -291,7 +291,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     hints.noiseSigma = interiorSigma;
     for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
       DeepLevelOptions dl;
-      dl.radius = std::max(3.5, 3.0 * blurVox);
+      dl.radius = std::clamp(3.0 * blurVox, 3.5, 15.0);
       dl.upper = (phase == 1) == voidBright;
       dl.oneSided = o.phaseLevelTail;
       dl.fallbackSigma = interiorSigma;
