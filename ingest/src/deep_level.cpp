@@ -53,6 +53,7 @@ std::vector<Offset> ballOffsets(int r2) {
 struct SliceSamples {
   std::vector<float> value, diff;
   std::vector<std::uint8_t> clear2, pairClear2;
+  std::vector<std::uint8_t> dipped;  // clear2 of the deep voxels left out on a dip
 };
 
 // The mean of a normal N(mu, s^2) truncated to x > c is mu + s lambda((c - mu) / s) with
@@ -127,22 +128,58 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   };
   const int minClear2 = static_cast<int>(std::floor(o.minRadius * o.minRadius)) + 1;
 
+  // A deep voxel on a gap the preliminary segmentation closed lies in a thin sheet that
+  // reads darker (brighter, for the dark phase) than the phase around it. Its 26 neighbours
+  // show it: their mean is compared with the same mean at the 8 corners of a cube of
+  // half-width ceil(radius) around it that are deep themselves (off any sheet through the
+  // voxel that lies along the lattice axes, as the flat faces of pellets lying flat do; a
+  // bias field is smooth over the cube). A voxel whose neighbours sit more than dipSigmas
+  // noise sigmas (of a 26-voxel mean) towards the other phase from the corners' mean is
+  // left out; with fewer than 2 deep corners it is kept. The decision reads only other
+  // voxels, so it does not bias the voxel's own value.
+  const bool dip = o.dipSigmas > 0.0 && o.fallbackSigma > 0.0;
+  const double dipCut = o.dipSigmas * o.fallbackSigma / std::sqrt(26.0);
+  const double towards = o.upper ? 1.0 : -1.0;  // +1: the other phase is darker
+  const auto corner = static_cast<std::int64_t>(std::ceil(o.radius));
+  const int deepClear2 = r2max + 1;  // a corner is deep in the largest ball
+  auto mean26 = [&](std::int64_t k, std::int64_t j, std::int64_t i) {
+    double sum = 0.0;
+    for (std::int64_t dz = -1; dz <= 1; ++dz)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+          if (dz || dy || dx) sum += image(k + dz, j + dy, i + dx);
+    return sum / 26.0;
+  };
+  // True when the voxel's neighbours dip towards the other phase (see above).
+  auto onDip = [&](std::int64_t k, std::int64_t j, std::int64_t i) {
+    double ref = 0.0;
+    int n = 0;
+    for (std::int64_t a : {-corner, corner})
+      for (std::int64_t b : {-corner, corner})
+        for (std::int64_t c : {-corner, corner}) {
+          const std::int64_t z = k + a, y = j + b, x = i + c;
+          if (z < 0 || y < 0 || x < 0 || z >= nz || y >= ny || x >= nx) continue;
+          if (indicator(z, y, x) != phase || clearance(z, y, x) < deepClear2) continue;
+          ref += mean26(z, y, x);
+          ++n;
+        }
+    return n >= 2 && towards * (ref / n - mean26(k, j, i)) > dipCut;
+  };
+
 #pragma omp parallel for schedule(dynamic, 1) \
     num_threads(std::max(1, o.threads)) if (o.threads > 1 && slices > 1)
   for (std::int64_t s = 0; s < slices; ++s) {
     const std::int64_t k = s * stride;
     if (k < reach || k >= nz - reach) continue;
     SliceSamples& out = perK[static_cast<std::size_t>(s)];
+    std::vector<std::uint8_t> c2s(perSlice, 0);
     for (std::int64_t j = reach; j < ny - reach; ++j) {
       std::uint8_t prev = 0;  // clear2 of (k, j, i - 1) when i is odd, else 0
       for (std::int64_t i = 0; i < nx; ++i) {
         const std::size_t off = l.offset(k, j, i);
         std::uint8_t c2 = 0;
         if ((!region || (*region)[off]) && indicator[off] == phase) c2 = clearance(k, j, i);
-        if (c2 >= minClear2) {
-          out.value.push_back(image[off]);
-          out.clear2.push_back(c2);
-        }
+        c2s[static_cast<std::size_t>(j * nx + i)] = c2;
         if (i % 2 == 1 && c2 >= minClear2 && prev >= minClear2) {
           out.diff.push_back(image[off] - image[off - 1]);
           out.pairClear2.push_back(std::min(prev, c2));
@@ -150,6 +187,17 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
         prev = c2;
       }
     }
+    for (std::int64_t j = reach; j < ny - reach; ++j)
+      for (std::int64_t i = reach; i < nx - reach; ++i) {
+        const auto p = static_cast<std::size_t>(j * nx + i);
+        if (c2s[p] < minClear2) continue;
+        if (dip && onDip(k, j, i)) {
+          out.dipped.push_back(c2s[p]);
+          continue;
+        }
+        out.value.push_back(image(k, j, i));
+        out.clear2.push_back(c2s[p]);
+      }
   }
 
   DeepLevel r;
@@ -167,6 +215,8 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
         }
     if (count < o.minVoxels) continue;
     r.voxels = count;
+    for (const auto& slice : perK)
+      for (std::uint8_t c : slice.dipped) r.dipExcluded += c >= need;
     r.radius = rad;
     r.mean = sum / static_cast<double>(count);
     {  // The phase's own noise: 1.4826 MAD of the pair differences about 0, / sqrt 2.

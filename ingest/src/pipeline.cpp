@@ -532,6 +532,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
                                                            {"sigma", finiteOrNull(d.sigma)},
                                                            {"ball_radius_voxels", d.radius},
                                                            {"voxels", d.voxels},
+                                                           {"dip_excluded", d.dipExcluded},
                                                            {"slice_stride", d.sliceStride}};
     }
     if (volumeUsed)

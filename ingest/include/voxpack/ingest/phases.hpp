@@ -68,7 +68,10 @@ struct DeepLevelOptions {
   bool oneSided = false;         ///< fit the far tail (else the plain mean)
   bool upper = true;             ///< the far tail is above the level (the brighter phase)
   double cut = 1.0;              ///< the tail starts cut sigma on the near side of the level
-  double fallbackSigma = 0.0;    ///< noise sigma when the phase has < 100 deep pairs
+  double fallbackSigma = 0.0;    ///< noise sigma: the dip test's, and the tail fit's when
+                                 ///< the phase has < 100 deep pairs
+  double dipSigmas = 2.0;        ///< leave out deep voxels whose 26 neighbours' mean lies this many
+                           ///< of its sigmas towards the other phase from the window's (0: off)
   std::size_t maxExamined = std::size_t{1} << 23;  ///< voxels looked at (whole slices, strided)
   int threads = 1;                                 ///< OpenMP threads (result independent)
 };
@@ -77,17 +80,18 @@ struct DeepLevelOptions {
 struct DeepLevel {
   double level = std::numeric_limits<double>::quiet_NaN();  ///< fitted level (image units)
   double mean = std::numeric_limits<double>::quiet_NaN();   ///< plain mean of the deep voxels
-  double sigma = 0.0;      ///< the phase's noise (1.4826 MAD of x-pair differences / sqrt 2)
-  double radius = 0.0;     ///< ball radius used (voxels); 0: too few deep voxels
-  std::size_t voxels = 0;  ///< deep voxels used
-  std::size_t pairs = 0;   ///< disjoint deep x pairs behind sigma
-  int sliceStride = 1;     ///< every sliceStride-th slice was sampled
+  double sigma = 0.0;           ///< the phase's noise (1.4826 MAD of x-pair differences / sqrt 2)
+  double radius = 0.0;          ///< ball radius used (voxels); 0: too few deep voxels
+  std::size_t voxels = 0;       ///< deep voxels used
+  std::size_t pairs = 0;        ///< disjoint deep x pairs behind sigma
+  std::size_t dipExcluded = 0;  ///< deep voxels left out on a dip (a gap the blur closed)
+  int sliceStride = 1;          ///< every sliceStride-th slice was sampled
 };
 
 /// Level of `phase`: voxels whose Euclidean ball of `radius` (else a smaller one holding
-/// minVoxels) lies inside the phase and whose centre is in `region`; a normal with the
-/// phase's own sigma fitted to the tail away from the other phase (sub-voxel gaps only
-/// mix that phase in). Deterministic for any thread count.
+/// minVoxels) lies inside the phase and whose centre is in `region`, less those on a dip
+/// (dipSigmas); their mean, or (oneSided) a normal with the phase's own sigma fitted to
+/// the tail away from the other phase. Deterministic for any thread count.
 DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& indicator,
                          const Grid<std::uint8_t>* region, std::uint8_t phase,
                          const DeepLevelOptions& options);
