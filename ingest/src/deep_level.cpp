@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -150,17 +151,32 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
           if (dz || dy || dx) sum += image(k + dz, j + dy, i + dx);
     return sum / 26.0;
   };
-  // True when the voxel's neighbours dip towards the other phase (see above).
-  auto onDip = [&](std::int64_t k, std::int64_t j, std::int64_t i) {
+  // The corners lie in slices k - corner and k + corner, and each corner serves up to four
+  // voxels of slice k: their reference values (mean26 where deep, NaN where not) are kept
+  // per slice as they are first asked for (kUnknown: not yet).
+  constexpr double kUnknown = -std::numeric_limits<double>::infinity();
+  auto cornerValue = [&](std::vector<double>& memo, std::int64_t z, std::int64_t y,
+                         std::int64_t x) {
+    double& v = memo[static_cast<std::size_t>(y * nx + x)];
+    if (v == kUnknown)
+      v = indicator(z, y, x) == phase && clearance(z, y, x) >= deepClear2
+              ? mean26(z, y, x)
+              : std::numeric_limits<double>::quiet_NaN();
+    return v;
+  };
+  // True when the voxel's neighbours dip towards the other phase (see above); memo[0] and
+  // memo[1] hold the corner values of slices k - corner and k + corner.
+  auto onDip = [&](std::vector<double>(&memo)[2], std::int64_t k, std::int64_t j, std::int64_t i) {
     double ref = 0.0;
     int n = 0;
-    for (std::int64_t a : {-corner, corner})
+    for (int side = 0; side < 2; ++side)
       for (std::int64_t b : {-corner, corner})
         for (std::int64_t c : {-corner, corner}) {
-          const std::int64_t z = k + a, y = j + b, x = i + c;
+          const std::int64_t z = k + (side ? corner : -corner), y = j + b, x = i + c;
           if (z < 0 || y < 0 || x < 0 || z >= nz || y >= ny || x >= nx) continue;
-          if (indicator(z, y, x) != phase || clearance(z, y, x) < deepClear2) continue;
-          ref += mean26(z, y, x);
+          const double v = cornerValue(memo[side], z, y, x);
+          if (std::isnan(v)) continue;
+          ref += v;
           ++n;
         }
     return n >= 2 && towards * (ref / n - mean26(k, j, i)) > dipCut;
@@ -187,11 +203,14 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
         prev = c2;
       }
     }
+    std::vector<double> memo[2];
+    if (dip)
+      for (auto& m : memo) m.assign(perSlice, kUnknown);
     for (std::int64_t j = reach; j < ny - reach; ++j)
       for (std::int64_t i = reach; i < nx - reach; ++i) {
         const auto p = static_cast<std::size_t>(j * nx + i);
         if (c2s[p] < minClear2) continue;
-        if (dip && onDip(k, j, i)) {
+        if (dip && onDip(memo, k, j, i)) {
           out.dipped.push_back(c2s[p]);
           continue;
         }

@@ -157,10 +157,11 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
       o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
   const bool maybeRician =
       o.noise == NoiseChoice::Rician || (o.noise == NoiseChoice::Auto && voidBright.value_or(true));
-  const std::uint64_t raw = volume || o.calibrationRuns > 0 ||
-                                    (maybeRician && o.column != ColumnMode::None && o.refineColumn)
-                                ? 4
-                                : 0;
+  // The phase levels (read for the volume threshold and for --calibrate's image quality,
+  // pipeline.cpp's wantLevels) need the raw copy and, in fitPhaseLevels, a value copy.
+  const bool levels = volume || o.calibrationRuns > 0;
+  const std::uint64_t raw =
+      levels || (maybeRician && o.column != ColumnMode::None && o.refineColumn) ? 4 : 0;
   // Reading: ITK's float buffer and ours.
   std::uint64_t peak = 8 * n;
   // Denoising, in the input lattice: the image and the filter's output (curvature: ITK's
@@ -172,10 +173,10 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
   if (o.n4) peak = std::max(peak, (20 + raw) * n);  // its input copy and ITK's images
   if (o.resampleMm > 0.0) peak = std::max(peak, (4 + raw) * (n + m));
   // In the output lattice. Threshold choice: the image, raw, the preliminary indicator,
-  // the column core (or, with no column, the bed's slices) and (volume) the quantile's
-  // value copy. Segmentation: the image, the core, two indicators and the clean-up's marks
-  // (its search holds <= maxVoxels + 6).
-  const std::uint64_t choose = 4 + raw + 1 + 1 + (volume ? 4 : 0);
+  // the column core (or, with no column, the bed's slices) and (the phase levels, and the
+  // volume threshold's quantile after them) a value copy. Segmentation: the image, the core, two
+  // indicators and the clean-up's marks (its search holds <= maxVoxels + 6).
+  const std::uint64_t choose = 4 + raw + 1 + 1 + (levels ? 4 : 0);
   const std::uint64_t segment = 4 + 1 + 1 + 1 + 1;
   std::uint64_t perOut = std::max(choose, segment);
   // Labels: the distance map, the basins and their copies (28.5 B measured at 256³).
