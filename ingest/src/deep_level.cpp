@@ -136,8 +136,12 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   // voxel that lies along the lattice axes, as the flat faces of pellets lying flat do; a
   // bias field is smooth over the cube). A voxel whose neighbours sit more than dipSigmas
   // noise sigmas (of a 26-voxel mean) towards the other phase from the corners' mean is
-  // left out; with fewer than 2 deep corners it is kept. The decision reads only other
-  // voxels, so it does not bias the voxel's own value.
+  // left out. With fewer than 2 deep corners (pellets of 10 voxels or so across: the
+  // corners, ceil(radius) sqrt 3 away, fall outside them) the reference is the mean of the
+  // deep voxels of the whole cube instead, when there are at least 26 of them (its noise
+  // is then at most the 26-voxel mean's); a sheet through the voxel is one of its 2
+  // ceil(radius) + 1 layers. Else the voxel is kept. The decision reads only other voxels,
+  // so it does not bias the voxel's own value.
   const bool dip = o.dipSigmas > 0.0 && o.fallbackSigma > 0.0;
   const double dipCut = o.dipSigmas * o.fallbackSigma / std::sqrt(26.0);
   const double towards = o.upper ? 1.0 : -1.0;  // +1: the other phase is darker
@@ -164,9 +168,37 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
               : std::numeric_limits<double>::quiet_NaN();
     return v;
   };
+  // Mean of the deep voxels of the cube of half-width `corner` around (k, j, i), not the
+  // voxel itself; NaN with fewer than 26. `deep` holds the cube's slices k - corner ..
+  // k + corner as 0 (not yet asked), 1 (not deep), 2 (deep), filled as first asked for.
+  const std::int64_t side = 2 * corner + 1;
+  auto cubeMean = [&](std::vector<std::uint8_t>& deep, std::int64_t k, std::int64_t j,
+                      std::int64_t i) {
+    if (deep.empty()) deep.assign(static_cast<std::size_t>(side) * perSlice, 0);
+    double sum = 0.0;
+    int n = 0;
+    for (std::int64_t dz = -corner; dz <= corner; ++dz) {
+      const std::int64_t z = k + dz;
+      if (z < 0 || z >= nz) continue;
+      std::uint8_t* flags = deep.data() + static_cast<std::size_t>(dz + corner) * perSlice;
+      for (std::int64_t y = std::max<std::int64_t>(0, j - corner);
+           y <= std::min(ny - 1, j + corner); ++y)
+        for (std::int64_t x = std::max<std::int64_t>(0, i - corner);
+             x <= std::min(nx - 1, i + corner); ++x) {
+          if (dz == 0 && y == j && x == i) continue;
+          std::uint8_t& f = flags[static_cast<std::size_t>(y * nx + x)];
+          if (f == 0) f = indicator(z, y, x) == phase && clearance(z, y, x) >= deepClear2 ? 2 : 1;
+          if (f != 2) continue;
+          sum += image(z, y, x);
+          ++n;
+        }
+    }
+    return n >= 26 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+  };
   // True when the voxel's neighbours dip towards the other phase (see above); memo[0] and
-  // memo[1] hold the corner values of slices k - corner and k + corner.
-  auto onDip = [&](std::vector<double>(&memo)[2], std::int64_t k, std::int64_t j, std::int64_t i) {
+  // memo[1] hold the corner values of slices k - corner and k + corner, `deep` the cube's.
+  auto onDip = [&](std::vector<double>(&memo)[2], std::vector<std::uint8_t>& deep, std::int64_t k,
+                   std::int64_t j, std::int64_t i) {
     double ref = 0.0;
     int n = 0;
     for (int side = 0; side < 2; ++side)
@@ -179,7 +211,9 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
           ref += v;
           ++n;
         }
-    return n >= 2 && towards * (ref / n - mean26(k, j, i)) > dipCut;
+    if (n >= 2) return towards * (ref / n - mean26(k, j, i)) > dipCut;
+    const double cube = cubeMean(deep, k, j, i);
+    return !std::isnan(cube) && towards * (cube - mean26(k, j, i)) > dipCut;
   };
 
 #pragma omp parallel for schedule(dynamic, 1) \
@@ -204,13 +238,14 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
       }
     }
     std::vector<double> memo[2];
+    std::vector<std::uint8_t> deep;  // the cube's deep flags, made on first use
     if (dip)
       for (auto& m : memo) m.assign(perSlice, kUnknown);
     for (std::int64_t j = reach; j < ny - reach; ++j)
       for (std::int64_t i = reach; i < nx - reach; ++i) {
         const auto p = static_cast<std::size_t>(j * nx + i);
         if (c2s[p] < minClear2) continue;
-        if (dip && onDip(memo, k, j, i)) {
+        if (dip && onDip(memo, deep, k, j, i)) {
           out.dipped.push_back(c2s[p]);
           continue;
         }

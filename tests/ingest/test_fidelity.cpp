@@ -424,37 +424,75 @@ TEST(Fidelity, TailLevelReadsTheBrightSideOfABiasField) {
 // A gap the preliminary segmentation closed: horizontal sheets through a solid block that
 // read 700 instead of 1000 (flat faces of pellets stacked with a sub-voxel gap, still above
 // any threshold), every 10th slice, noise sigma 80. Every voxel is "solid", so the ball keeps the
-// sheets; their 26 neighbours dip against the corners of the cube around them, and the dip test
-// leaves them out. Under a gain ramp (0.8 to 1.2 along x) the level stays the mean gain's.
-// Measured: all deep voxels 964.2, with the dip test 997.9 (no ramp) and 1000.9 (ramp).
+// sheets; their 26 neighbours dip against the reference around them, and the dip test leaves
+// them out. Under a gain ramp (0.8 to 1.2 along x) the level stays the mean gain's.
+struct SheetCase {
+  DeepLevel kept, one, all;  // dip test on 2 and 1 threads; no dip test
+};
+template <class Solid>
+SheetCase sheetedSolid(const Lattice& l, bool ramp, std::uint64_t seed, Solid solid) {
+  Grid<float> image(l, 0.0f);
+  Grid<std::uint8_t> ind(l, 1);
+  RandomStream rng(seed, 0);
+  for (std::int64_t k = 0; k < l.nz(); ++k)
+    for (std::int64_t j = 0; j < l.ny(); ++j)
+      for (std::int64_t i = 0; i < l.nx(); ++i) {
+        const bool in = solid(k, j, i);
+        const double gain = ramp ? 0.8 + 0.4 * static_cast<double>(i) / 43.0 : 1.0;
+        const double v = in ? (k % 10 == 5 ? 700.0 : 1000.0) : 200.0;
+        image(k, j, i) = static_cast<float>(gain * v + 80.0 * rng.normal());
+        ind(k, j, i) = in ? 0 : 1;
+      }
+  DeepLevelOptions o;
+  o.fallbackSigma = 80.0;
+  o.threads = 2;
+  SheetCase r;
+  r.kept = phaseDeepLevel(image, ind, nullptr, 0, o);
+  o.threads = 1;
+  r.one = phaseDeepLevel(image, ind, nullptr, 0, o);
+  o.dipSigmas = 0.0;
+  r.all = phaseDeepLevel(image, ind, nullptr, 0, o);
+  std::cout << "[ measured ] gain ramp " << ramp << ": all deep voxels " << r.all.level << " ("
+            << r.all.voxels << ", ball " << r.all.radius << "), dip test " << r.kept.level << " ("
+            << r.kept.voxels << ", " << r.kept.dipExcluded << " left out)\n";
+  return r;
+}
+
+// A 40^3 block: the cube's corners are deep. Measured: all deep voxels 964.2, with the dip
+// test 999.1 (no ramp) and 1002.1 (ramp).
 TEST(Fidelity, DipTestLeavesOutTheSheetOfAClosedGap) {
   const Lattice l = Lattice::isotropic(44, 44, 44, 0.1);
-  for (int ramp : {0, 1}) {
-    Grid<float> image(l, 0.0f);
-    Grid<std::uint8_t> ind(l, 1);
-    RandomStream rng(5, 0);
-    for (std::int64_t k = 0; k < l.nz(); ++k)
-      for (std::int64_t j = 0; j < l.ny(); ++j)
-        for (std::int64_t i = 0; i < l.nx(); ++i) {
-          const bool block = k >= 2 && j >= 2 && i >= 2 && k < 42 && j < 42 && i < 42;
-          const double gain = ramp ? 0.8 + 0.4 * static_cast<double>(i) / 43.0 : 1.0;
-          const double v = block ? (k % 10 == 5 ? 700.0 : 1000.0) : 200.0;
-          image(k, j, i) = static_cast<float>(gain * v + 80.0 * rng.normal());
-          ind(k, j, i) = block ? 0 : 1;
-        }
-    DeepLevelOptions o;
-    o.fallbackSigma = 80.0;
-    o.threads = 2;
-    const DeepLevel kept = phaseDeepLevel(image, ind, nullptr, 0, o);
-    o.dipSigmas = 0.0;
-    const DeepLevel all = phaseDeepLevel(image, ind, nullptr, 0, o);
+  for (bool ramp : {false, true}) {
+    const SheetCase r =
+        sheetedSolid(l, ramp, 5, [](std::int64_t k, std::int64_t j, std::int64_t i) {
+          return k >= 2 && j >= 2 && i >= 2 && k < 42 && j < 42 && i < 42;
+        });
     // The true level over the deep voxels: 1000 times the mean gain of the block's core.
     const double truth = ramp ? 1000.0 * (0.8 + 0.4 * 21.5 / 43.0) : 1000.0;
-    std::cout << "[ measured ] gain ramp " << ramp << ": all deep voxels " << all.level << " ("
-              << all.voxels << "), dip test " << kept.level << " (" << kept.voxels << ", "
-              << kept.dipExcluded << " left out); truth " << truth << '\n';
-    EXPECT_LT(all.level, truth - 10.0);
-    EXPECT_NEAR(kept.level, truth, 4.0);
-    EXPECT_GT(kept.dipExcluded, 0u);
+    EXPECT_LT(r.all.level, truth - 10.0);
+    EXPECT_NEAR(r.kept.level, truth, 4.0);
+    EXPECT_GT(r.kept.dipExcluded, 0u);
+    EXPECT_EQ(r.kept.level, r.one.level);  // any thread count, the same bits
+  }
+}
+
+// Pellets ~10 voxels across (10 voxels per d): rods of 10 x 10 voxels along z. No corner of
+// the dip test's cube is deep, so the reference is the mean of the cube's deep voxels.
+// Measured: all deep voxels 969.2 / 960.2, dip test 999.3 / 987.4 (truth 1000 / 990.7).
+TEST(Fidelity, DipTestOnSmallPelletsReadsTheCubeAroundTheVoxel) {
+  const Lattice l = Lattice::isotropic(104, 44, 44, 0.1);
+  auto inRod = [](std::int64_t v) { return v >= 2 && v < 40 && (v - 2) % 14 < 10; };
+  for (bool ramp : {false, true}) {
+    const SheetCase r =
+        sheetedSolid(l, ramp, 6, [&](std::int64_t k, std::int64_t j, std::int64_t i) {
+          return k >= 2 && k < 102 && inRod(j) && inRod(i);
+        });
+    // The deep voxels are the rods' central 4 x 4 columns (i = 5..8, 19..22, 33..36).
+    const double truth = ramp ? 1000.0 * (0.8 + 0.4 * 20.5 / 43.0) : 1000.0;
+    ASSERT_EQ(r.all.radius, 3.5);  // the cube's corners lie 4 voxels out: outside the rods
+    EXPECT_LT(r.all.level, truth - 10.0);
+    EXPECT_NEAR(r.kept.level, truth, 4.0);
+    EXPECT_GT(r.kept.dipExcluded, 0u);
+    EXPECT_EQ(r.kept.level, r.one.level);  // any thread count, the same bits
   }
 }
