@@ -101,6 +101,12 @@ class IngestCommand final : public Command {
                    "the median closes thin void throats (0 = always the median)")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
+    sub.add_option("--surface-reread-max-jitter", o_.surfaceRereadMaxJitter,
+                   "MRI edge correction: read the interface density again on the segmentation "
+                   "when noise moves an interface by at most this many voxels (sd), else keep "
+                   "the preliminary one (0 = never)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     sub.add_flag("!--no-wall-blur-correction", o_.wallBlurCorrection,
                  "volume threshold: keep the grey values next to the column wall as imaged "
                  "(default: divide the wall's fitted blur profile out of them)");

@@ -185,6 +185,13 @@ TEST(CliIngest, VolumeRegionAndColumnWallSwitches) {
   EXPECT_NE(tail["phases"]["solid_deep"]["level"].get<double>(),
             tail["phases"]["solid_deep"]["mean"].get<double>());
   ingest({"--phase-level", "median"}, 2);
+  // The MRI edge correction's S_V re-read: a threshold in voxels of interface jitter (an XMT
+  // image has no edge correction, so nothing is read again).
+  EXPECT_DOUBLE_EQ(base["options"]["surface_reread_max_jitter"].get<double>(), 0.3);
+  EXPECT_FALSE(base["threshold"]["mean_intensity_porosity"]["surface_reread"].get<bool>());
+  const auto never = ingest({"--surface-reread-max-jitter", "0"});
+  EXPECT_DOUBLE_EQ(never["options"]["surface_reread_max_jitter"].get<double>(), 0.0);
+  ingest({"--surface-reread-max-jitter", "-1"}, 2);
 }
 
 TEST(CliIngest, ResampleAndExplicitColumn) {

@@ -72,6 +72,11 @@ struct IngestOptions {
   /// (measured on the preliminary segmentation) the threshold cuts the raw image instead
   /// (the median closes thin void throats). 0: always the median.
   double medianMinVoxelsPerD = 18.0;
+  /// MRI edge correction: S_V is read again on the segmentation (and the larger one used)
+  /// when noise displaces an interface crossing by at most this many voxels (sd:
+  /// sqrt(2 pi) sqrt(blur^2 + 1/12) / SNR); beyond it noise roughens the segmentation's
+  /// interfaces. 0: the preliminary segmentation's S_V only.
+  double surfaceRereadMaxJitter = 0.3;
   bool labels = false;                  ///< distance-map watershed particle labels
   double labelMarkerDepthVoxels = 1.0;  ///< watershed marker depth, voxels, >= 0
   int calibrationRuns = 0;              ///< > 0: calibrate the density bias with this many phantoms
