@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # DEM fidelity beyond the paper (docs/dem.md "Random close packing", "Mean voidage against
 # Benyahia & O'Neill"). Not run by ctest: each bed takes minutes.
-#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|rcp-poured|voidage|all] [THREADS] [SEED] [FRICTIONS]
+#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|rcp-poured|voidage|voidage-cylinders|all]
+#                         [THREADS] [SEED] [FRICTIONS]
 # rcp:     5000 frictionless spheres d 3 mm in a 48 mm column (D/d 16), e 0.5, 0.3 mm
 #          voxels, poured, and poured + 5 taps; bulk voxel density >= 3 d from wall, floor and
 #          top, g(r) from the centres (bench/dem/bed_structure.py). RCP_ARGS (environment)
@@ -11,6 +12,10 @@
 # voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
 #          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
+# voidage-cylinders: the paper's cylinders (d 5.4 x l 3.8 mm, volume-equivalent d_pe 5.498
+#          mm) at D/d_pe 3, 5, 8, 12 and 20, poured at each of FRICTIONS, e 0.5, 0.54 mm voxels
+#          (10 per d: VOIDCYL_VOXEL overrides), beds 20/16/12/10/8 d_pe deep; against
+#          eps = 0.373 + 1.703 / (D/d_pe + 0.611)^2, the voxel and the centre-count voidage.
 # Raw JSON per bed in OUT_DIR/NAME.json and all of them in OUT_DIR/dem_fidelity.json.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -54,7 +59,7 @@ res = {"name": name, "args": args, "status": info["provenance"]["status"],
        "g_r_d": s["g_r_d"], "g": s["g"]}
 json.dump(res, open(b + ".json", "w"), indent=1)
 st = res["structure"]
-print(f"{name}: {res['status']}, {res['particles']} spheres, {res['wall_s']:.0f} s wall, "
+print(f"{name}: {res['status']}, {res['particles']} particles, {res['wall_s']:.0f} s wall, "
       f"bed phi {st['mean_phi_bed']:.4f}, bulk phi {st['bulk_phi']:.4f}, "
       f"g peak {st['g_contact_peak']:.2f} at {st['g_contact_peak_r_d']:.3f} d, "
       f"crystal-like {res['crystal_order']['bulk_crystal_fraction']:.3f}", flush=True)
@@ -70,18 +75,30 @@ if [[ $which == rcp || $which == rcp-poured || $which == all ]]; then
   run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
   [[ $which == rcp-poured ]] || run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
 fi
-if [[ $which == voidage || $which == all ]]; then
+# One poured bed per D/d and friction: PREFIX D_MM VOLUME_MM3 VOXEL_MM SHAPE "D/d:COUNT ...".
+# The container holds the pour: its height is the settled bed (solid ~0.55) x 1.4 + 30 mm.
+voidage_sweep() {
+  local prefix=$1 d=$2 vol=$3 voxel=$4 shape=$5 specs=$6 mu spec r n dd h
   for mu in $frictions; do
-    # D/d: count (bed ~ 30/25/20/15/10 d deep at phi ~ 0.6)
-    for spec in 3:220 5:560 8:1150 12:1950 20:3600; do
+    for spec in $specs; do
       r=${spec%%:*}
       n=${spec##*:}
-      dd=$(/usr/bin/python3 -c "print(3 * $r)")
-      h=$(/usr/bin/python3 -c "print(round(3 * $n * 4.5 / (0.55 * 3.1416 * ($r * 3) ** 2 / 4) * 1.4 + 30))")
-      run "voidage_r${r}_mu${mu}" 3 --shape sphere:d=3 --container "cylinder:d=$dd,h=$h" \
-        --voxel-size 0.3 --count "$n" --friction "$mu" --restitution 0.5 --max-time 8
+      dd=$(/usr/bin/python3 -c "print(round($d * $r, 3))")
+      h=$(/usr/bin/python3 -c "print(round($n * $vol / (0.55 * 3.1416 * ($r * $d) ** 2 / 4) * 1.4 + 30))")
+      run "${prefix}_r${r}_mu${mu}" "$d" --shape "$shape" --container "cylinder:d=$dd,h=$h" \
+        --voxel-size "$voxel" --count "$n" --friction "$mu" --restitution 0.5 --max-time 8
     done
   done
+}
+if [[ $which == voidage || $which == all ]]; then
+  # Beds ~30/25/20/15/10 d deep; the volume 13.5 mm^3 (for 14.1) is the height rule kept
+  # from the first runs.
+  voidage_sweep voidage 3 13.5 0.3 sphere:d=3 "3:220 5:560 8:1150 12:1950 20:3600"
+fi
+if [[ $which == voidage-cylinders || $which == all ]]; then
+  # Beds 20/16/12/10/8 d_pe deep (V 87.03 mm^3).
+  voidage_sweep voidcyl 5.498 87.03 "${VOIDCYL_VOXEL:-0.54}" cylinder:d=5.4,l=3.8 \
+    "3:170 5:360 8:700 12:1300 20:2900"
 fi
 /usr/bin/python3 - "$out" <<'PY'
 import glob, json, sys
@@ -94,10 +111,15 @@ for r in rows:
         nominal = float(r["name"].split("_r")[1].split("_")[0])
         r["benyahia_voidage"] = 0.390 + 1.740 / (nominal + 1.140) ** 2
         r["voidage_minus_benyahia"] = r["structure"]["mean_voidage_bed"] - r["benyahia_voidage"]
+    if r["name"].startswith("voidcyl"):
+        nominal = float(r["name"].split("_r")[1].split("_")[0])
+        r["benyahia_voidage"] = 0.373 + 1.703 / (nominal + 0.611) ** 2
+        r["voidage_minus_benyahia"] = r["structure"]["mean_voidage_bed"] - r["benyahia_voidage"]
 json.dump({"what": "DEM fidelity: random close packing and mean voidage (bench/dem/fidelity.sh)",
            "beds": rows}, open(f"{out}/dem_fidelity.json", "w"), indent=1)
 for r in rows:
     if "benyahia_voidage" in r:
-        print(f"{r['name']}: voidage {r['structure']['mean_voidage_bed']:.4f}, Benyahia "
+        print(f"{r['name']}: voidage {r['structure']['mean_voidage_bed']:.4f} (centres "
+              f"{r['structure']['mean_voidage_bed_centres']:.4f}), Benyahia "
               f"{r['benyahia_voidage']:.4f}, difference {r['voidage_minus_benyahia']:+.4f}")
 PY
