@@ -5,8 +5,13 @@
 // 18 gather + 19 write + 18 index streams overwhelm the prefetchers); the deviation keeps float32
 // accurate (the values are ~1e-3 of w_q, so float's 24 bits hold the flow instead of the constant
 // w_q). Two lattices, pull scheme: one pass reads the post-collision populations of the neighbours
-// (or, behind a wall, the cell's own opposite population: halfway bounce-back), collides in double,
-// writes the new post-collision populations. The pull source of every (cell, q) is a
+// (or, behind a wall, the cell's own opposite population: halfway bounce-back), collides in the
+// populations' precision, writes the new post-collision populations. float32 collides in float
+// (8 lanes per AVX2 instruction instead of 4): k moved by <= 2e-6 against 3e-8 with a double
+// collision of the same float populations, 1.1-1.6x faster (docs/flow.md, "float32 against
+// float64"); the force's source terms lose nothing by it (a tiny term keeps float's relative
+// precision; what float cannot hold is its sum with the population, stored in float anyway). The
+// step's sums (mass, velocity) accumulate in double. The pull source of every (cell, q) is a
 // precomputed index into the population array (indirect addressing), so the kernel is a
 // plain loop over fluid cells. Every cell's update depends on the old lattice only, and
 // reductions are summed per fixed block of cells and then in block order, so the result
@@ -103,17 +108,21 @@ __attribute__((always_inline)) inline void stepRangeBody(
     const T* fin, T* fout, const std::uint32_t* src, const std::uint8_t* inSample,
     const WallLink* lk, const WallLink* lkEnd, std::size_t begin, std::size_t end, const Rates& r,
     int axis, BlockSums* sums) {
-  const double wp = r.omegaPlus, wm = r.omegaMinus;
-  const double gp = 1.0 - 0.5 * wp, gm = 1.0 - 0.5 * wm;
+  using C = T;  // the collision's precision: that of the populations
+  const C wp = static_cast<C>(r.omegaPlus), wm = static_cast<C>(r.omegaMinus);
+  const C gp = C(1) - C(0.5) * wp, gm = C(1) - C(0.5) * wm;
+  const C forceC[3] = {static_cast<C>(r.force[0]), static_cast<C>(r.force[1]),
+                       static_cast<C>(r.force[2])};
+  const C zeroC[3] = {0, 0, 0};
   for (std::size_t c0 = begin; c0 < end; c0 += kLanes) {
     const int nl = static_cast<int>(std::min<std::size_t>(kLanes, end - c0));
-    alignas(64) double f[kQ][kLanes], out[kQ][kLanes], F[3][kLanes];
-    alignas(64) double u[3][kLanes], uuOut[kLanes], rhoOut[kLanes];
+    alignas(64) C f[kQ][kLanes], out[kQ][kLanes], F[3][kLanes];
+    alignas(64) C u[3][kLanes], uuOut[kLanes], rhoOut[kLanes];
     for (int l = 0; l < kLanes; ++l) {
       const std::size_t c = c0 + static_cast<std::size_t>(l);
       if (l >= nl) {  // a lane past the range computes on zeros and is not stored
-        for (int q = 0; q < kQ; ++q) f[q][l] = 0.0;
-        for (int d = 0; d < 3; ++d) F[d][l] = 0.0;
+        for (int q = 0; q < kQ; ++q) f[q][l] = C(0);
+        for (int d = 0; d < 3; ++d) F[d][l] = C(0);
         continue;
       }
       const std::uint32_t* from = src + c * (kQ - 1);
@@ -125,55 +134,54 @@ __attribute__((always_inline)) inline void stepRangeBody(
       }
       if constexpr (Kind == kPull) {
         for (; lk != lkEnd && lk->cell == c; ++lk)
-          f[lk->slot][l] =
-              lk->a * static_cast<double>(fin[lk->i1]) + lk->b * static_cast<double>(fin[lk->i2]);
+          f[lk->slot][l] = static_cast<C>(lk->a * static_cast<double>(fin[lk->i1]) +
+                                          lk->b * static_cast<double>(fin[lk->i2]));
       }
-      const double* force = inSample[c] ? r.force : kZero3;
+      const C* force = inSample[c] ? forceC : zeroC;
       for (int d = 0; d < 3; ++d) F[d][l] = force[d];
     }
 #pragma omp simd
     for (int l = 0; l < kLanes; ++l) {
       // Moments, written out for D3Q19 (kC order): a loop over kC would multiply by 0 and
       // +-1 at run time (IEEE rules forbid folding x * 0).
-      const double d1 = f[1][l] - f[10][l], d2 = f[2][l] - f[11][l], d3 = f[3][l] - f[12][l],
-                   d4 = f[4][l] - f[13][l], d5 = f[5][l] - f[14][l], d6 = f[6][l] - f[15][l],
-                   d7 = f[7][l] - f[16][l], d8 = f[8][l] - f[17][l], d9 = f[9][l] - f[18][l];
-      const double j0 = d1 + d4 + d5 + d6 + d7, j1 = d2 + d4 - d5 + d8 + d9,
-                   j2 = d3 + d6 - d7 + d8 - d9;
-      double sum = f[0][l];
+      const C d1 = f[1][l] - f[10][l], d2 = f[2][l] - f[11][l], d3 = f[3][l] - f[12][l],
+              d4 = f[4][l] - f[13][l], d5 = f[5][l] - f[14][l], d6 = f[6][l] - f[15][l],
+              d7 = f[7][l] - f[16][l], d8 = f[8][l] - f[17][l], d9 = f[9][l] - f[18][l];
+      const C j0 = d1 + d4 + d5 + d6 + d7, j1 = d2 + d4 - d5 + d8 + d9, j2 = d3 + d6 - d7 + d8 - d9;
+      C sum = f[0][l];
       for (int q = 1; q < kQ; ++q) sum += f[q][l];
-      const double drho = sum, rho = 1.0 + sum;
+      const C drho = sum, rho = C(1.0) + sum;
       // Guo's forcing: the velocity carries half the force of the step.
-      const double F0 = F[0][l], F1 = F[1][l], F2 = F[2][l];
-      const double u0 = (j0 + 0.5 * F0) / rho, u1 = (j1 + 0.5 * F1) / rho,
-                   u2 = (j2 + 0.5 * F2) / rho;
-      const double uu = u0 * u0 + u1 * u1 + u2 * u2;
-      const double uF = u0 * F0 + u1 * F1 + u2 * F2;
+      const C F0 = F[0][l], F1 = F[1][l], F2 = F[2][l];
+      const C u0 = (j0 + C(0.5) * F0) / rho, u1 = (j1 + C(0.5) * F1) / rho,
+              u2 = (j2 + C(0.5) * F2) / rho;
+      const C uu = u0 * u0 + u1 * u1 + u2 * u2;
+      const C uF = u0 * F0 + u1 * F1 + u2 * F2;
       u[0][l] = u0;
       u[1][l] = u1;
       u[2][l] = u2;
       uuOut[l] = uu;
       rhoOut[l] = rho;
       {  // rest population
-        const double eq = kW[0] * (drho - 1.5 * rho * uu);
-        const double s0 = kW[0] * (-3.0 * uF);
+        const C eq = C(kW[0]) * (drho - C(1.5) * rho * uu);
+        const C s0 = C(kW[0]) * (-C(3.0) * uF);
         out[0][l] = f[0][l] - wp * (f[0][l] - eq) + gp * s0;
       }
       // c_q . u and c_q . F for q = 1..9; pairs (q, q + 9) with c_{q+9} = -c_q.
-      const double cu[10] = {0, u0, u1, u2, u0 + u1, u0 - u1, u0 + u2, u0 - u2, u1 + u2, u1 - u2};
-      const double cf[10] = {0, F0, F1, F2, F0 + F1, F0 - F1, F0 + F2, F0 - F2, F1 + F2, F1 - F2};
+      const C cu[10] = {C(0), u0, u1, u2, u0 + u1, u0 - u1, u0 + u2, u0 - u2, u1 + u2, u1 - u2};
+      const C cf[10] = {C(0), F0, F1, F2, F0 + F1, F0 - F1, F0 + F2, F0 - F2, F1 + F2, F1 - F2};
 #pragma GCC unroll 9
       for (int q = 1; q <= 9; ++q) {
         const int qb = q + 9;
-        const double w = kW[q];
-        const double eqp = w * (drho + rho * (4.5 * cu[q] * cu[q] - 1.5 * uu));
-        const double eqm = w * rho * 3.0 * cu[q];
-        const double sp = w * (9.0 * cu[q] * cf[q] - 3.0 * uF);
-        const double sm = w * 3.0 * cf[q];
-        const double fp = 0.5 * (f[q][l] + f[qb][l]);
-        const double fm = 0.5 * (f[q][l] - f[qb][l]);
-        const double relaxP = -wp * (fp - eqp) + gp * sp;
-        const double relaxM = -wm * (fm - eqm) + gm * sm;
+        const C w = static_cast<C>(kW[q]);
+        const C eqp = w * (drho + rho * (C(4.5) * cu[q] * cu[q] - C(1.5) * uu));
+        const C eqm = w * rho * C(3.0) * cu[q];
+        const C sp = w * (C(9.0) * cu[q] * cf[q] - C(3.0) * uF);
+        const C sm = w * C(3.0) * cf[q];
+        const C fp = C(0.5) * (f[q][l] + f[qb][l]);
+        const C fm = C(0.5) * (f[q][l] - f[qb][l]);
+        const C relaxP = -wp * (fp - eqp) + gp * sp;
+        const C relaxM = -wm * (fm - eqm) + gm * sm;
         out[q][l] = f[q][l] + relaxP + relaxM;
         out[qb][l] = f[qb][l] + relaxP - relaxM;
       }
@@ -192,10 +200,10 @@ __attribute__((always_inline)) inline void stepRangeBody(
         for (int q = 1; q < kQ; ++q) fout[to[q - 1]] = static_cast<T>(out[kOpposite[q]][l]);
       }
       if (sums && inSample[c]) {
-        sums->axial += u[axis][l];
-        sums->speed += std::sqrt(uuOut[l]);
+        sums->axial += static_cast<double>(u[axis][l]);
+        sums->speed += std::sqrt(static_cast<double>(uuOut[l]));
       }
-      if (sums) sums->mass += rhoOut[l];
+      if (sums) sums->mass += static_cast<double>(rhoOut[l]);
     }
   }
 }

@@ -24,7 +24,7 @@ const char* statusName(FlowStatus s);
 
 /// Floating-point type of the stored populations.
 enum class Precision {
-  Float,  ///< float32 populations (deviation from rest equilibrium), double arithmetic
+  Float,  ///< float32 populations (deviation from rest equilibrium) and collision; double sums
   Double  ///< float64 populations (the reference the float results are measured against)
 };
 
