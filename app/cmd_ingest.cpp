@@ -219,7 +219,7 @@ class IngestCommand final : public Command {
       checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
                       static_cast<std::uint64_t>(l.dims[2]), 64},
                      what);
-      estimate_ = estimateIngestPeakBytes(l, o_, voidBright_);
+      estimate_ = estimateIngestPeakBytes(l, o_, voidBright_, resolveThreads(global.threads));
       requireWithinBudget(estimate_, global.memory, what);
     };
     CommandProgress bar(global);
@@ -294,7 +294,8 @@ class IngestCommand final : public Command {
     checkedProduct({static_cast<std::uint64_t>(l.dims[0]), static_cast<std::uint64_t>(l.dims[1]),
                     static_cast<std::uint64_t>(l.dims[2]), 64},
                    what);
-    const std::uint64_t inMemory = estimateIngestPeakBytes(l, o_, voidBright_);
+    const std::uint64_t inMemory =
+        estimateIngestPeakBytes(l, o_, voidBright_, resolveThreads(global.threads));
     const bool fits = global.memory.fits(inMemory);
     if (fits && slabPlanes_ == 0 && !ranks) return false;
     const std::string why = streamedIngestUnsupported(o_, h);

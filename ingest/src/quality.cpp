@@ -141,12 +141,15 @@ double packedRegionDensity(const Bed& bed, std::int64_t* first, std::int64_t* la
 }
 
 std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& o,
-                                      std::optional<bool> voidBright) {
+                                      std::optional<bool> voidBright, int threads) {
   const auto n = static_cast<std::uint64_t>(input.size());
   std::uint64_t m = n;
+  auto plane = static_cast<std::uint64_t>(input.ny()) * static_cast<std::uint64_t>(input.nx());
   if (o.resampleMm > 0.0) {
     Lattice l = input;
-    m = static_cast<std::uint64_t>(resampledLattice(l, o.resampleMm).size());
+    const Lattice r = resampledLattice(l, o.resampleMm);
+    m = static_cast<std::uint64_t>(r.size());
+    plane = static_cast<std::uint64_t>(r.ny()) * static_cast<std::uint64_t>(r.nx());
   }
   // The pipeline's stages, with what each holds per voxel (pipeline.cpp); the peak is the
   // largest. Read off the code and checked against the peak RSS of each pipeline at 256³
@@ -185,7 +188,12 @@ std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions&
   // 63.5 B/voxel measured at 256³ with the image (67.3 with the raw copy).
   if (o.deconvolveIterations > 0) perOut = std::max<std::uint64_t>(perOut, 64 + raw);
   const std::uint64_t search = cleanupSearchBytes(std::max(o.maxSpeckVoxels, o.maxHoleVoxels), m);
-  peak = std::max(peak, perOut * m + search);
+  // The phase levels' memos per thread and sampled slice (deep_level.cpp): the dip test's
+  // corner values (2 slices of doubles) and its cube's deep flags (2 ceil(radius) + 1 slices
+  // of bytes; the radius is at most 15, and the blur that sets it is not known yet).
+  const std::uint64_t memos =
+      levels ? static_cast<std::uint64_t>(std::max(1, threads)) * (16 + 31) * plane : 0;
+  peak = std::max(peak, perOut * m + search + memos);
   // Calibration holds the bed (2 B) beside a phantom (8 B with the bias field) and the
   // same pipeline run on it.
   if (o.calibrationRuns > 0)

@@ -105,9 +105,11 @@ inline constexpr std::uint64_t kIngestProcessBaseBytes = std::uint64_t{44} << 20
 
 /// Peak memory of the pipeline on an input of `input` voxels, bytes (before reading),
 /// kIngestProcessBaseBytes included. `voidBright`: the polarity when known from the header
-/// (a dark void needs no Rician copy of the raw image), else the worst case.
+/// (a dark void needs no Rician copy of the raw image), else the worst case; `threads`: the
+/// pipeline's threads (each holds per-slice buffers).
 std::uint64_t estimateIngestPeakBytes(const Lattice& input, const IngestOptions& options,
-                                      std::optional<bool> voidBright = std::nullopt);
+                                      std::optional<bool> voidBright = std::nullopt,
+                                      int threads = 1);
 
 /// A segmented bed and the record of how it was made.
 struct IngestResult {
