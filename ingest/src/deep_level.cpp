@@ -147,6 +147,9 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
   const double towards = o.upper ? 1.0 : -1.0;  // +1: the other phase is darker
   const auto corner = static_cast<std::int64_t>(std::ceil(o.radius));
   const int deepClear2 = r2max + 1;  // a corner is deep in the largest ball
+  auto isDeep = [&](std::int64_t z, std::int64_t y, std::int64_t x) {
+    return indicator(z, y, x) == phase && clearance(z, y, x) >= deepClear2;
+  };
   auto mean26 = [&](std::int64_t k, std::int64_t j, std::int64_t i) {
     double sum = 0.0;
     for (std::int64_t dz = -1; dz <= 1; ++dz)
@@ -163,18 +166,16 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
                          std::int64_t x) {
     double& v = memo[static_cast<std::size_t>(y * nx + x)];
     if (v == kUnknown)
-      v = indicator(z, y, x) == phase && clearance(z, y, x) >= deepClear2
-              ? mean26(z, y, x)
-              : std::numeric_limits<double>::quiet_NaN();
+      v = isDeep(z, y, x) ? mean26(z, y, x) : std::numeric_limits<double>::quiet_NaN();
     return v;
   };
   // Mean of the deep voxels of the cube of half-width `corner` around (k, j, i), not the
   // voxel itself; NaN with fewer than 26. `deep` holds the cube's slices k - corner ..
   // k + corner as 0 (not yet asked), 1 (not deep), 2 (deep), filled as first asked for.
-  const std::int64_t side = 2 * corner + 1;
+  const std::int64_t cubeSlices = 2 * corner + 1;
   auto cubeMean = [&](std::vector<std::uint8_t>& deep, std::int64_t k, std::int64_t j,
                       std::int64_t i) {
-    if (deep.empty()) deep.assign(static_cast<std::size_t>(side) * perSlice, 0);
+    if (deep.empty()) deep.assign(static_cast<std::size_t>(cubeSlices) * perSlice, 0);
     double sum = 0.0;
     int n = 0;
     for (std::int64_t dz = -corner; dz <= corner; ++dz) {
@@ -187,7 +188,7 @@ DeepLevel phaseDeepLevel(const Grid<float>& image, const Grid<std::uint8_t>& ind
              x <= std::min(nx - 1, i + corner); ++x) {
           if (dz == 0 && y == j && x == i) continue;
           std::uint8_t& f = flags[static_cast<std::size_t>(y * nx + x)];
-          if (f == 0) f = indicator(z, y, x) == phase && clearance(z, y, x) >= deepClear2 ? 2 : 1;
+          if (f == 0) f = isDeep(z, y, x) ? 2 : 1;
           if (f != 2) continue;
           sum += image(z, y, x);
           ++n;
