@@ -306,7 +306,8 @@ class IngestCommand final : public Command {
       requireWithinBudget(inMemory, global.memory,
                           what + " in memory (no streamed path for " + why + ")");
     }
-    std::int64_t planes = streamedSlabPlanes(h, o_, global.memory, slabPlanes_);
+    const int threads = resolveThreads(global.threads);
+    std::int64_t planes = streamedSlabPlanes(h, o_, global.memory, slabPlanes_, threads);
     // Under mpirun without --slab-voxels, at least two slabs per rank, so every rank works
     // (a volume that fits the budget would otherwise be one slab); the provenance records
     // the slab thickness, and one process with that --slab-voxels writes the same bed.
@@ -314,14 +315,15 @@ class IngestCommand final : public Command {
       planes = std::min(
           planes, std::max<std::int64_t>(1, (l.nz() + 2 * comm.size() - 1) / (2 * comm.size())));
     requireWithinBudget(
-        estimateStreamedIngestBytes(h, o_, std::max<std::int64_t>(planes, 1)), global.memory,
+        estimateStreamedIngestBytes(h, o_, std::max<std::int64_t>(planes, 1), threads),
+        global.memory,
         what + " streamed in slabs of " + std::to_string(std::max<std::int64_t>(planes, 1)) +
             " planes (+ " + std::to_string(streamedHaloPlanes(o_, l.nz())) +
             " halo planes each side)");
     if (!global.quiet && comm.rank() == 0)
       progress.message("streaming: in memory would need about " + formatBytes(inMemory) +
                        "; slabs of " + std::to_string(planes) + " planes, about " +
-                       formatBytes(estimateStreamedIngestBytes(h, o_, planes)) +
+                       formatBytes(estimateStreamedIngestBytes(h, o_, planes, threads)) +
                        (ranks ? " per rank, over " + std::to_string(comm.size()) + " ranks" : ""));
     const StreamedIngestResult r =
         ingestVolumeStreamed(h, o_, output_, planes, resolveThreads(global.threads), progress,

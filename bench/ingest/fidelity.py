@@ -137,10 +137,15 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
          "--blur-mm", f"{blur_vox * voxel:.6f}", "--voxel-size", f"{voxel:.6f}", "--seed",
          str(seed), "-o", img])
     recs = []
+    raw = None
     for v, extra in variants:
         seg = os.path.join(WORK, f"{tag}_{v}.h5")
         flags = extra(t) if callable(extra) else extra
-        r, secs = run(["--threads", "2", "ingest", img, "-o", seg, "--json"] + flags)
+        src = img
+        if "--slab-voxels" in flags:  # the streamed reader needs raw encoding
+            raw = raw or raw_nrrd(img)
+            src = raw
+        r, secs = run(["--threads", "2", "ingest", src, "-o", seg, "--json"] + flags)
         rep = json.loads(r.stdout)
         dens, prof = t.measure(seg)
         col = rep["column"]
@@ -153,6 +158,8 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
                    radius_err_voxels=((col.get("radius_mm", float("nan")) - t.radius) / voxel
                                       if col["found"] else None),
                    threshold=rep["threshold"]["method"], quality=rep.get("quality"),
+                   levels_note=(rep["threshold"].get("levels") or rep.get("phases") or {}).get(
+                       "note"),
                    ingest_wall_s=secs)
         print(json.dumps({k: rec[k] for k in ("study", "bed", "modality", "voxels_per_d", "snr",
                                                 "blur_voxels", "seed", "variant", "bias",
@@ -161,7 +168,21 @@ def case(name, vpd, snr, blur_vox, modality, variants, study, seed=3):
         recs.append(rec)
         os.remove(seg)
     os.remove(img)
+    if raw:
+        os.remove(raw)
     return recs
+
+
+def raw_nrrd(path):
+    """A raw-encoded copy of the phantom's attached gzip NRRD (the streamed path's input)."""
+    import gzip
+    data = open(path, "rb").read()
+    head, body = data.split(b"\n\n", 1)
+    head = head.replace(b"encoding: gzip", b"encoding: raw")
+    out = path[:-5] + "_raw.nrrd"
+    with open(out, "wb") as f:
+        f.write(head + b"\n\n" + gzip.decompress(body))
+    return out
 
 
 STD = [("after", []), ("before", BEFORE)]
@@ -179,6 +200,11 @@ DIAG = STD + [
     ("after+wall_prior", lambda t: ["--column-wall-mm", f"{4 * BEDS[t.name]['voxel']:g}"]),
     ("after+no_cleanup", ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
     ("before+no_cleanup", BEFORE + ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
+    # The streamed path (forced by --slab-voxels; it needs an explicit column): the volume
+    # threshold from a sample slab and whole-bed sums (docs/scale.md), and Otsu.
+    ("streamed", lambda t: t.column_flag() + ["--slab-voxels", "16"]),
+    ("streamed+otsu", lambda t: ["--threshold", "otsu"] + t.column_flag() +
+     ["--slab-voxels", "16"]),
 ]
 
 records = []

@@ -6,10 +6,8 @@
 #include <numbers>
 #include <optional>
 
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
-
+#include "heap.hpp"
+#include "phase_reading.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/core/json_util.hpp"
 #include "voxpack/core/version.hpp"
@@ -21,14 +19,6 @@
 
 namespace voxpack::ingest {
 namespace {
-
-// Returns the heap's free pages to the system where the C library can (glibc's malloc_trim,
-// which also trims the threads' arenas); elsewhere a no-op.
-void releaseFreedHeap() {
-#if defined(__GLIBC__)
-  malloc_trim(0);
-#endif
-}
 
 const char* name(DenoiseMethod d) {
   switch (d) {
@@ -114,6 +104,40 @@ bool resolveVoidBright(VoidPolarity polarity, const std::map<std::string, std::s
   }
   say("default (dark, as in XMT)");
   return false;
+}
+
+PhaseReading readPhaseLevels(const Grid<float>& raw, const Grid<std::uint8_t>& prelim,
+                             const Grid<std::uint8_t>* region, double blurVox, bool voidBright,
+                             NoiseModel model, bool tail, int threads) {
+  PhaseReading r;
+  // The noise sigma comes from a homogeneous region (deep in the void phase); the
+  // histogram's flanks read it 10-35 % high under blur (docs/ingest.md).
+  r.interiorSigma = phaseInteriorStats(raw, prelim, region, 1).sigma;
+  // Each phase's level is read deep inside it, where the blurred interfaces do not reach
+  // (a Euclidean ball of 3 blur sigma, at least 3.5 voxels, so that the necks of pellets
+  // fused by the blur stay out): the histogram's peaks are pulled towards each other by
+  // the partial-volume voxels (docs/ingest.md, "The phase levels"). An MRI signal-free
+  // phase has no level to read there but sigma sqrt(pi/2); a phase without enough deep
+  // voxels keeps its peak.
+  PhaseHints hints;
+  hints.noiseSigma = r.interiorSigma;
+  for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
+    DeepLevelOptions dl;
+    dl.radius = std::clamp(3.0 * blurVox, 3.5, 15.0);
+    dl.upper = (phase == 1) == voidBright;
+    dl.oneSided = tail;
+    dl.fallbackSigma = r.interiorSigma;
+    dl.threads = threads;
+    r.deep[phase] = phaseDeepLevel(raw, prelim, region, phase, dl);
+    if (r.deep[phase].radius > 0.0)
+      (phase ? hints.voidMean : hints.solidMean) = r.deep[phase].level;
+  }
+  // The deep voxels' samples (per-slice vectors, ~12 B per deep voxel, in the threads'
+  // heaps) are freed, but the heap keeps their pages: the value copy below would land on
+  // top of them (256^3: peak 8 % over the estimate). Hand them back first.
+  releaseFreedHeap();
+  r.levels = fitPhaseLevels(raw, region, voidBright, model, &hints);
+  return r;
 }
 
 IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, Progress& progress) {
@@ -223,12 +247,19 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     column.zRefMm = lat.originMm[0];
     column.note = "given on the command line";
     // The geometry is given; the wall step still tells the blur (the Rician edge
-    // correction needs it). Only the blur is taken from the refinement.
+    // correction needs it) and the wall's grey levels. Only those are taken from the
+    // refinement.
     if (o.refineColumn) {
       const ColumnFit seen = refine(column);
       if (seen.refined) {
         column.blurMm = seen.blurMm;
         column.wallThicknessMm = seen.wallThicknessMm;
+        // The grey-level wall correction (XMT) needs the wall's and the outside's levels:
+        // without them it divided the bed next to the wall as if both were 0 (+0.027
+        // density on the XMT 20/d fidelity test with the true column given, +0.02..0.04 on
+        // the fidelity benchmark).
+        column.wallLevel = seen.wallLevel;
+        column.outsideLevel = seen.outsideLevel;
         column.refined = true;
         column.note += "; blur from the wall step";
       }
@@ -292,33 +323,12 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
   bool medianSkipped = false;
   std::string medianNote;
   if (wantLevels) {
-    // The noise sigma comes from a homogeneous region (deep in the void phase); the
-    // histogram's flanks read it 10-35 % high under blur (docs/ingest.md).
-    interiorSigma = phaseInteriorStats(raw, prelim, region, 1).sigma;
-    // Each phase's level is read deep inside it, where the blurred interfaces do not reach
-    // (a Euclidean ball of 3 blur sigma, at least 3.5 voxels, so that the necks of pellets
-    // fused by the blur stay out): the histogram's peaks are pulled towards each other by
-    // the partial-volume voxels (docs/ingest.md, "The phase levels"). An MRI signal-free
-    // phase has no level to read there but sigma sqrt(pi/2); a phase without enough deep
-    // voxels keeps its peak.
-    PhaseHints hints;
-    hints.noiseSigma = interiorSigma;
-    for (std::uint8_t phase : {std::uint8_t{0}, std::uint8_t{1}}) {
-      DeepLevelOptions dl;
-      dl.radius = std::clamp(3.0 * blurVox, 3.5, 15.0);
-      dl.upper = (phase == 1) == voidBright;
-      dl.oneSided = o.phaseLevelTail;
-      dl.fallbackSigma = interiorSigma;
-      dl.threads = threads;
-      deepLevels[phase] = phaseDeepLevel(raw, prelim, region, phase, dl);
-      if (deepLevels[phase].radius > 0.0)
-        (phase ? hints.voidMean : hints.solidMean) = deepLevels[phase].level;
-    }
-    // The deep voxels' samples (per-slice vectors, ~12 B per deep voxel, in the threads'
-    // heaps) are freed, but the heap keeps their pages: the value copy below would land on
-    // top of them (256^3: peak 8 % over the estimate). Hand them back first.
-    releaseFreedHeap();
-    levels = fitPhaseLevels(raw, region, voidBright, model, &hints);
+    PhaseReading pr =
+        readPhaseLevels(raw, prelim, region, blurVox, voidBright, model, o.phaseLevelTail, threads);
+    levels = pr.levels;
+    interiorSigma = pr.interiorSigma;
+    deepLevels[0] = pr.deep[0];
+    deepLevels[1] = pr.deep[1];
   }
   if (wantVolume) {
     // The 7-point median closes void throats one or two voxels wide: on coarse images

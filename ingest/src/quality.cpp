@@ -92,6 +92,11 @@ std::pair<std::int64_t, std::int64_t> bedSlices(const Grid<std::uint8_t>& indica
                                                 const Grid<std::uint8_t>* mask) {
   std::vector<double> in, solid;
   sliceCounts(indicator, mask, in, solid);
+  return bedSlicesFromCounts(in, solid);
+}
+
+std::pair<std::int64_t, std::int64_t> bedSlicesFromCounts(const std::vector<double>& in,
+                                                          const std::vector<double>& solid) {
   std::vector<double> share(in.size(), 0);
   double top = 0;
   for (std::size_t k = 0; k < in.size(); ++k) {

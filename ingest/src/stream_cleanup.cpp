@@ -1,6 +1,6 @@
 // Slab-wise pieces of the streamed ingest: plane crops and the solid-chord sums of
 // voxelsPerDiameter carried across slab boundaries. Each equals its whole-volume counterpart
-// exactly on the planes it reports (the halo argument is in docs/scale_ingest.md).
+// exactly on the planes it reports (the halo argument is in docs/scale.md).
 #include <algorithm>
 
 #include "stream_detail.hpp"

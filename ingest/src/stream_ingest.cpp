@@ -1,6 +1,6 @@
 // The streamed ingest path: plan (what streams, the halo, the slab size under the budget),
 // a first pass for the threshold (exact value histogram of the denoised image), and a
-// second pass that thresholds, cleans up and writes each slab. docs/scale_ingest.md.
+// second pass that thresholds, cleans up and writes each slab. docs/scale.md.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,6 +9,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "heap.hpp"
 #include "stream_detail.hpp"
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
@@ -24,7 +25,7 @@ using namespace stream_detail;
 
 // Distinct grey values the first pass keeps exactly (uint8/uint16 inputs stay far below;
 // a float image with more falls back to a second pass over Otsu's bins).
-constexpr std::size_t kMaxDistinctValues = std::size_t{1} << 20;
+constexpr std::size_t kMaxDistinctValues = ValueCounts::kMaxDistinct;
 // Resident bytes of the process before any volume (libraries, ITK factories, HDF5).
 
 std::int64_t denoiseHalo(const IngestOptions& o) {
@@ -61,20 +62,6 @@ nlohmann::json latticeJson(const Lattice& l) {
   return {{"dims", {l.dims[0], l.dims[1], l.dims[2]}},
           {"spacing_mm", {l.spacingMm[0], l.spacingMm[1], l.spacingMm[2]}},
           {"origin_mm", {l.originMm[0], l.originMm[1], l.originMm[2]}}};
-}
-
-// The denoised image over planes [a, b): read with the filter's halo (clipped at the
-// volume), filtered, cropped. Planes within the halo of a cut are wrong and dropped; at
-// the volume's own faces the filter clamps exactly as on the whole volume.
-Grid<float> denoisedPlanes(const VolumeHeader& h, const IngestOptions& o, std::int64_t a,
-                           std::int64_t b, int threads) {
-  const std::int64_t hd = denoiseHalo(o), nz = h.lattice.nz();
-  const std::int64_t ra = std::max<std::int64_t>(0, a - hd), rb = std::min(nz, b + hd);
-  Grid<float> img = readVolumeSlab(h, ra, rb);
-  if (o.denoise == DenoiseMethod::Median) img = crossMedianFilter(img, threads);
-  if (o.denoise == DenoiseMethod::MedianBox) img = medianFilter(img, o.medianRadiusVoxels, threads);
-  if (ra == a && rb == b) return img;
-  return cropPlanes(img, a - ra, b - ra);
 }
 
 // Otsu's bins of segment.cpp's otsuThreshold: the same index expression per value.
@@ -144,6 +131,24 @@ void checkCancel(Progress& progress) {
 
 }  // namespace
 
+// Planes within the halo of a cut are wrong and dropped; at the volume's own faces the
+// filter clamps exactly as on the whole volume.
+Grid<float> stream_detail::denoisedPlanes(const VolumeHeader& h, const IngestOptions& o,
+                                          std::int64_t a, std::int64_t b, int threads,
+                                          RingSums* raw, const WallFix* fix) {
+  const std::int64_t hd = denoiseHalo(o), nz = h.lattice.nz();
+  const std::int64_t ra = std::max<std::int64_t>(0, a - hd), rb = std::min(nz, b + hd);
+  Grid<float> img = readVolumeSlab(h, ra, rb);
+  // A voxel's correction depends on its distance from the axis only: slab by slab it is
+  // the whole image's, and the median of the corrected slab is the in-memory refilter.
+  if (fix) correctWallBlur(img, fix->column, fix->correction, threads);
+  if (raw) raw->add(img, a - ra, b - ra, a);
+  if (o.denoise == DenoiseMethod::Median) img = crossMedianFilter(img, threads);
+  if (o.denoise == DenoiseMethod::MedianBox) img = medianFilter(img, o.medianRadiusVoxels, threads);
+  if (ra == a && rb == b) return img;
+  return cropPlanes(img, a - ra, b - ra);
+}
+
 std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader& h) {
   std::vector<std::string> why;
   if (h.source.kind == StreamSource::Kind::None)
@@ -157,11 +162,6 @@ std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader
   if (o.resampleMm > 0.0) why.push_back("--resample");
   if (o.deconvolveIterations > 0) why.push_back("--deconvolve (an FFT of the whole image)");
   if (o.calibrationRuns > 0) why.push_back("--calibrate");
-  if (o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume)
-    why.push_back(
-        "the volume-preserving threshold (--threshold auto/volume needs the column "
-        "core and order statistics of the whole image; use --threshold otsu, kmeans "
-        "or a value)");
   if (o.column == ColumnMode::Auto)
     why.push_back("the automatic column fit (--column auto; give --column CX,CY,R or none)");
   std::string s;
@@ -174,7 +174,7 @@ std::int64_t streamedHaloPlanes(const IngestOptions& o, std::int64_t nz) {
 }
 
 std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOptions& o,
-                                          std::int64_t slabPlanes) {
+                                          std::int64_t slabPlanes, int threads) {
   const Lattice& l = h.lattice;
   const auto plane = static_cast<std::uint64_t>(l.ny()) * static_cast<std::uint64_t>(l.nx());
   const auto nz = l.nz();
@@ -191,25 +191,50 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
       perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
   // The first pass's exact value histogram (hash map node + bucket) and Otsu's bins.
   // A median or none selects input values, so an 8/16-bit file has at most 2^8/2^16.
-  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
+  const bool volume =
+      o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume) {
     const std::string& c = h.info.componentType;  // ITK's name of the stored type
     const std::size_t distinct = c == "unsigned_char" || c == "char"     ? 256
                                  : c == "unsigned_short" || c == "short" ? 65536
                                                                          : kMaxDistinctValues;
     bytes += distinct * 48 + 65536 * 8 + 1024 * 8;
+    // Volume: pass 1's sorted counts stay while its own counts (as many again) fill, its
+    // fine bins, the raw sums per plane and wall ring (twice: raw and corrected), the ring
+    // maps.
+    if (volume)
+      bytes += distinct * (8 + 48) + 65536 * 8 +
+               2 * static_cast<std::uint64_t>(nz) * (kOutside + 1) * 8 + 2 * plane;
   }
-  return bytes + kIngestProcessBaseBytes;
+  bytes += kIngestProcessBaseBytes;
+  if (volume) {
+    // The sample slab is analysed as the in-memory pipeline would a volume of its planes,
+    // beside pass 1's sums and counts (counted above, outside the slabs' share).
+    const std::int64_t sp = volumeSamplePlanes(l);
+    const Lattice sample = subLattice(l, {{0, 0, 0}, {sp, l.ny(), l.nx()}});
+    const std::uint64_t slabs =
+        perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
+    const std::uint64_t samplePhase = bytes - slabs - kIngestProcessBaseBytes +
+                                      estimateIngestPeakBytes(sample, o, std::nullopt, threads);
+    // After it, its per-thread slice buffers (the dip test's memos, 47 B per plane voxel,
+    // deep_level.cpp, and others) stay resident in the OpenMP workers' heaps, which
+    // malloc_trim does not hand back: measured 68-100 B per plane voxel in the slab passes
+    // at 384^2 planes on 2 threads against 1 (docs/scale.md); counted at 128.
+    bytes += static_cast<std::uint64_t>(std::max(0, threads - 1)) * 128 * plane;
+    bytes = std::max(bytes, samplePhase);
+  }
+  return bytes;
 }
 
 std::int64_t streamedSlabPlanes(const VolumeHeader& h, const IngestOptions& o,
-                                const MemoryBudget& budget, std::int64_t slabPlanes) {
+                                const MemoryBudget& budget, std::int64_t slabPlanes, int threads) {
   const Lattice& l = h.lattice;
   if (slabPlanes > 0) return std::min(slabPlanes, l.nz());
   if (budget.limitBytes == 0) return l.nz();
   std::int64_t lo = 0, hi = l.nz();  // largest t with estimate(t) <= limit
   while (lo < hi) {
     const std::int64_t mid = (lo + hi + 1) / 2;
-    if (estimateStreamedIngestBytes(h, o, mid) <= budget.limitBytes)
+    if (estimateStreamedIngestBytes(h, o, mid, threads) <= budget.limitBytes)
       lo = mid;
     else
       hi = mid - 1;
@@ -265,57 +290,45 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     column.note = "given on the command line";
   }
 
-  // Pass 1: exact counts of the denoised grey values (the threshold's only input).
+  // Pass 1: exact counts of the denoised grey values (the threshold's only input; for the
+  // volume threshold Otsu's, beside the raw sums per plane and wall ring).
   auto t0 = std::chrono::steady_clock::now();
   double t = o.thresholdValue;
   double tOtsu = std::numeric_limits<double>::quiet_NaN();
   int passes = 1;
-  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans) {
+  const bool volume =
+      o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
+  IngestOptions oc = o;  // the options of the image the threshold cuts (the volume's may differ)
+  StreamedVolume vol;
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume) {
     ++passes;
-    // Integer grey values 0..65535 (8/16-bit files) are counted in a flat array (fast); any
-    // other value in the hash map.
-    std::vector<std::uint64_t> small(65536, 0);
-    std::unordered_map<float, std::uint64_t> counts;
-    bool overflow = false;
-    float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+    ValueCounts vc;
+    RingSums rs;
+    if (volume) {
+      rs.ring = wallRings(lat, column.found ? &column : nullptr);
+      rs.perRing.assign(kOutside + 1, 0.0);
+      for (std::uint8_t r : rs.ring) rs.perRing[r] += 1.0;
+      rs.sum.assign(static_cast<std::size_t>(nz) * (kOutside + 1), 0.0);
+    }
     const std::int64_t own = (slabs - me + P - 1) / P;  // slabs me, me + P, ...
     SlabProgress sp(progress, "threshold histogram (pass 1)", own, "ingest");
     for (std::int64_t s = 0; s < slabs; ++s) {
       if (!mine(s)) continue;
       sp.step(s / P);
       const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
-      const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
-      for (float v : img.values()) {
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-        if (v >= 0.0f && v < 65536.0f && v == std::floor(v)) {
-          ++small[static_cast<std::size_t>(v)];
-        } else if (!overflow) {
-          ++counts[v];
-          if (counts.size() > kMaxDistinctValues) {
-            overflow = true;
-            counts = {};
-          }
-        }
+      {
+        const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads, volume ? &rs : nullptr);
+        for (float v : img.values()) vc.add(v);
       }
+      releaseFreedHeap();
     }
-    if (P > 1) {
-      // The integer grey values are summed over the ranks; other values are not gathered:
-      // any of them on any rank sends Otsu to its bins pass (below), which sums.
-      comm->sum(small);
-      lo = static_cast<float>(comm->min(static_cast<double>(lo)));
-      hi = static_cast<float>(comm->max(static_cast<double>(hi)));
-      if (!comm->allTrue(counts.empty() && !overflow)) {
-        overflow = true;
-        counts = {};
-      }
-    }
+    vc.reduce(comm);
+    if (P > 1 && volume) comm->sum(rs.sum);  // each plane summed on one rank: exact
+    const float lo = vc.lo, hi = vc.hi;
+    bool overflow = vc.overflow;
     sp.step(own);
-    std::vector<std::pair<float, std::uint64_t>> sorted(counts.begin(), counts.end());
-    counts = {};
-    for (std::size_t v = 0; v < small.size(); ++v)
-      if (small[v] > 0) sorted.emplace_back(static_cast<float>(v), small[v]);
-    std::sort(sorted.begin(), sorted.end());
+    const std::vector<std::pair<float, std::uint64_t>> sorted = vc.sorted();
+    vc = ValueCounts();
     constexpr int kBins = 1024;  // otsuThreshold's default
     std::vector<double> bins(kBins, 0.0);
     const double scale = kBins / (static_cast<double>(hi) - lo);
@@ -337,13 +350,33 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
         if (!mine(s)) continue;
         bp.step(s / P);
         const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
-        const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
-        for (float v : img.values()) bins[otsuBin(v, lo, scale, kBins)] += 1.0;
+        {
+          const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads);
+          for (float v : img.values()) bins[otsuBin(v, lo, scale, kBins)] += 1.0;
+        }
+        releaseFreedHeap();
       }
       if (P > 1) comm->sum(bins);  // integer-valued counts: exact in any order
     }
     tOtsu = otsuFromBins(bins, lo, hi, lat.size());
     t = o.threshold == ThresholdMethod::Otsu ? tOtsu : kmeansFromCounts(sorted, lo, hi);
+    if (volume) {
+      // Otsu's class means (bin centres): the per-plane unmixing that finds the bed's slices.
+      double n0 = 0, s0 = 0, n1 = 0, s1 = 0;
+      for (int b = 0; b < kBins; ++b) {
+        const double v = lo + (b + 0.5) / scale, c = bins[static_cast<std::size_t>(b)];
+        (v <= tOtsu ? n0 : n1) += c;
+        (v <= tOtsu ? s0 : s1) += c * v;
+      }
+      const double lowMean = n0 > 0 ? s0 / n0 : tOtsu, highMean = n1 > 0 ? s1 / n1 : tOtsu;
+      vol =
+          streamedVolumeThreshold(h, o, column.found ? &column : nullptr, voidBright, tOtsu,
+                                  voidBright ? highMean : lowMean, voidBright ? lowMean : highMean,
+                                  rs, T, threads, progress, comm);
+      passes += vol.passes;
+      t = vol.threshold;
+      oc.denoise = vol.cut;
+    }
   }
   if (!std::isfinite(t)) throw UsageError("--threshold must be a finite number");
   timing["threshold_s"] = seconds(t0);
@@ -356,8 +389,11 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   std::optional<BedSlabWriter> writer;
   if (me == 0) writer.emplace(output, lat, column.found, false);
   BedSummary summary;
-  std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0;
+  std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0, volIn = 0, volVoid = 0;
   ChordSums chordsCore, chordsAll;
+  // The volume threshold's region: the bed's slices at its wall ring and deeper.
+  const std::vector<std::uint8_t> rings =
+      vol.used ? wallRings(lat, column.found ? &column : nullptr) : std::vector<std::uint8_t>{};
   std::size_t specks = 0, holes = 0;
   // Rank 0 takes every slab in order (its own or received), the others their own.
   SlabProgress wp(progress, "segment and write (pass " + std::to_string(passes) + ")",
@@ -372,7 +408,8 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       const std::int64_t a = std::max<std::int64_t>(0, z0 - hs - hh),
                          b = std::min(nz, z1 + hs + hh);
       {
-        const Grid<float> img = denoisedPlanes(h, o, a, b, threads);
+        const Grid<float> img =
+            denoisedPlanes(h, oc, a, b, threads, nullptr, vol.fix ? &*vol.fix : nullptr);
         ind = applyThreshold(img, t, voidBright);
       }
       cleaned[0] = removeSmallComponents(ind, 0, o.maxSpeckVoxels, z0 - a, z1 - a);
@@ -400,6 +437,13 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       core = columnCoreMask(sub, column, margin);
     }
     accumulateSummary(summary, ind, mask ? &*mask : nullptr);
+    if (vol.used)
+      for (std::int64_t k = std::max(z0, vol.first); k < std::min(z1, vol.last + 1); ++k)
+        for (std::size_t p = 0; p < rings.size(); ++p)
+          if (rings[p] >= vol.ring && rings[p] <= kRings) {
+            ++volIn;
+            volVoid += ind[static_cast<std::size_t>(k - z0) * rings.size() + p];
+          }
     for (std::size_t n = 0; n < ind.size(); ++n) {
       allVoid += ind[n];
       if (core) {
@@ -415,6 +459,9 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     }
     writer->writeIndicator(z0, ind);
     if (mask) writer->writeMask(z0, *mask);
+    // Each slab's buffers are freed; without handing their pages back, glibc's heap grows
+    // by about a slab per few slabs (384^3 in slabs of 18 planes: 159 MB against 126 MB).
+    releaseFreedHeap();
   }
   if (me != 0) {  // the other ranks are done: rank 0 reports and writes
     StreamedIngestResult r;
@@ -430,10 +477,13 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
 
   // segmentVolume uses the column core as the region when it holds >= 64 voxels.
   const bool coreUsed = column.found && coreIn >= 64;
-  const double achieved = coreUsed ? static_cast<double>(coreVoid) / static_cast<double>(coreIn)
-                                   : static_cast<double>(allVoid) / static_cast<double>(lat.size());
+  const double achieved =
+      vol.used
+          ? static_cast<double>(volVoid) / static_cast<double>(std::max<std::uint64_t>(1, volIn))
+      : coreUsed ? static_cast<double>(coreVoid) / static_cast<double>(coreIn)
+                 : static_cast<double>(allVoid) / static_cast<double>(lat.size());
   const double vpd = coreUsed ? chordsCore.diameter() : chordsAll.diameter();
-  const std::string method = thresholdName(o.threshold);
+  const std::string method = vol.used ? "volume" : volume ? "otsu" : thresholdName(o.threshold);
 
   nlohmann::json rep;
   rep["input"] = h.info.files.empty() ? std::string() : h.info.files.front();
@@ -462,12 +512,16 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
                     {"column", o.column == ColumnMode::None ? "none" : "explicit"},
                     {"labels", o.labels}};
   rep["threshold"] = {{"method", method},
-                      {"requested", method},
+                      {"requested", thresholdName(o.threshold)},
                       {"value", finiteOrNull(t)},
                       {"otsu_value", finiteOrNull(tOtsu)},
                       {"void", voidBright ? "bright" : "dark"},
                       {"void_from", polaritySource},
-                      {"region", coreUsed ? "column core" : "whole image"},
+                      {"region", vol.used   ? (vol.ring > 0   ? "column core, bed slices"
+                                               : column.found ? "column, bed slices"
+                                                              : "whole image, bed slices")
+                                 : coreUsed ? "column core"
+                                            : "whole image"},
                       {"porosity_segmented_region", finiteOrNull(achieved)}};
   rep["quality"] = {{"noise_sigma", 0.0},
                     {"snr", 0.0},
@@ -476,6 +530,11 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
                     {"voxel_mm", finiteOrNull(voxel)},
                     {"voxels_per_diameter", finiteOrNull(vpd)},
                     {"diameter_from", "sphere-equivalent 6V/S = 1.5 x mean solid chord"}};
+  if (volume) {  // the volume threshold read the image quality on its sample slab
+    for (const auto& [k, v] : vol.qualityJson.items()) rep["quality"][k] = v;
+    for (const auto& [k, v] : vol.thresholdJson.items()) rep["threshold"][k] = v;
+    if (vol.used) rep["threshold"]["porosity_aimed"] = vol.aimed;
+  }
   rep["cleanup"] = {{"specks_removed", specks}, {"holes_filled", holes}};
   nlohmann::json col = {{"mode", o.column == ColumnMode::None ? "none" : "explicit"},
                         {"found", column.found},
@@ -504,10 +563,13 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       {"halo_planes", streamedHaloPlanes(o, nz)},
       {"passes", passes},
       {"ranks", P},
-      {"memory_estimate_bytes", estimateStreamedIngestBytes(h, o, T)},
+      {"memory_estimate_bytes", estimateStreamedIngestBytes(h, o, T, threads)},
+      {"volume_sample", volume ? vol.sampleJson : nlohmann::json(nullptr)},
       {"note",
        "read by z-slab; the denoise and speck/hole clean-up use a halo that makes every "
-       "slab exact; the threshold comes from the exact value histogram of pass 1"}};
+       "slab exact; the threshold comes from the exact value histogram of pass 1, or (volume) "
+       "from the levels of a sample slab, the mean intensity of the whole bed and the exact "
+       "counts of its slices"}};
   sanitizeNonFinite(rep);
   nlohmann::json prov = {
       {"voxpack_version", versionString()}, {"command", "ingest"}, {"ingest", rep}};

@@ -30,6 +30,30 @@ json values(json j) {
   return j;
 }
 
+// `voxpack phantom BED` as a raw-encoded detached NRRD DIR/NAME.nhdr (phantom writes gzip
+// data, and the streamed reader needs raw); true when both steps succeeded.
+bool rawPhantom(const std::filesystem::path& dir, const std::string& bed, const std::string& name,
+                const std::string& options) {
+  const auto grey = (dir / (name + ".nhdr")).string();
+  return runShell(shellQuote(VOXPACK_BINARY) + " --quiet phantom " + shellQuote(bed) + " -o " +
+                  shellQuote(grey) + " " + options + " </dev/null >/dev/null") == 0 &&
+         runShell("gunzip -f " + shellQuote((dir / (name + ".raw.gz")).string()) +
+                  " && sed -i 's/^encoding: gzip/encoding: raw/; "
+                  "s/^data file: \\(.*\\)\\.gz$/data file: \\1/' " +
+                  shellQuote(grey)) == 0;
+}
+
+// A bed file's provenance less what names the run: the output path, the timing, the ranks,
+// and the passes (a float image under mpirun takes Otsu's bins pass, which one process
+// skips; the same threshold).
+json runlessProvenance(json p) {
+  p.erase("command_line");
+  p["ingest"].erase("timing_s");
+  p["ingest"]["streamed"].erase("ranks");
+  p["ingest"]["streamed"].erase("passes");
+  return p;
+}
+
 }  // namespace
 
 TEST(Mpi, StatsEqualForOneTwoThreeRanks) {
@@ -93,31 +117,14 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
   const auto bed = (tmp / "bed.h5").string();
   writeBed(bed, sphereColumn(o));
   for (const std::string pixel : {"uint8", "float32"}) {
-    // phantom writes gzip data; the streamed reader needs raw, so it is unpacked here.
     const auto grey = (tmp / (pixel + ".nhdr")).string();
-    ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + " --quiet phantom " + shellQuote(bed) + " -o " +
-                       shellQuote(grey) +
-                       " --modality xmt --snr 8 --blur-mm 0.2 --seed 3 --pixel-type " + pixel),
-              0);
-    ASSERT_EQ(runShell("gunzip -f " + shellQuote((tmp / (pixel + ".raw.gz")).string()) +
-                       " && sed -i 's/^encoding: gzip/encoding: raw/; "
-                       "s/^data file: \\(.*\\)\\.gz$/data file: \\1/' " +
-                       shellQuote(grey)),
-              0);
+    ASSERT_TRUE(rawPhantom(tmp.path(), bed, pixel,
+                           "--modality xmt --snr 8 --blur-mm 0.2 --seed 3 --pixel-type " + pixel));
     const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
                              " --threshold otsu --column 2.7,2.9,2.4 --slab-voxels 3 -o ";
     const auto serial = (tmp / (pixel + "_serial.h5")).string();
     ASSERT_EQ(runShell(shellQuote(VOXPACK_BINARY) + args + shellQuote(serial)), 0) << pixel;
     const Bed ref = readBed(serial);
-    // Not compared: the output path, the timing, the ranks, and the passes (a float image
-    // under mpirun takes Otsu's bins pass, which one process skips; same threshold).
-    auto provenance = [](json p) {
-      p.erase("command_line");
-      p["ingest"].erase("timing_s");
-      p["ingest"]["streamed"].erase("ranks");
-      p["ingest"]["streamed"].erase("passes");
-      return p;
-    };
     for (int n : {2, 3}) {
       const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();
       ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0)
@@ -128,7 +135,8 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
       EXPECT_EQ(b.indicator.values(), ref.indicator.values()) << pixel << ", " << n << " ranks";
       ASSERT_TRUE(b.mask && ref.mask);
       EXPECT_EQ(b.mask->values(), ref.mask->values());
-      EXPECT_EQ(provenance(b.provenance), provenance(ref.provenance)) << pixel << ", " << n;
+      EXPECT_EQ(runlessProvenance(b.provenance), runlessProvenance(ref.provenance))
+          << pixel << ", " << n;
     }
   }
   // What has no streamed path (here --column auto, a fit over the whole image) is refused
@@ -138,4 +146,44 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
                      " --column auto -o " + shellQuote(none) + " </dev/null 2>/dev/null"),
             2);
   EXPECT_FALSE(std::filesystem::exists(none));
+}
+
+// The volume threshold under mpirun (docs/scale.md, "The volume threshold, streamed"): every
+// rank analyses the same sample slab; the per-plane sums come each from one rank and the
+// counts (uint16: exact values; float32: fine bins) are integers, so 2 and 3 ranks cut at
+// the threshold of one process and write its bed. An MC bed of spheres d 2 mm under a
+// headspace, imaged as MRI at 10 voxels per d, SNR 10, blur 1 voxel.
+TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
+  TempDir tmp;
+  const std::string vox = shellQuote(VOXPACK_BINARY);
+  const auto bed = (tmp / "bed.h5").string();
+  ASSERT_EQ(runShell(vox +
+                     " --quiet pack --mode mc --shape sphere:d=2 --container "
+                     "cylinder:d=10,h=9 --voxel-size 0.1 --fill-height 8 --seed 1 -o " +
+                     shellQuote(bed) + " </dev/null >/dev/null"),
+            0);
+  for (const std::string pixel : {"uint16", "float32"}) {
+    const auto grey = (tmp / (pixel + ".nhdr")).string();
+    ASSERT_TRUE(rawPhantom(tmp.path(), bed, pixel,
+                           "--modality mri --snr 10 --blur-mm 0.2 --voxel-size 0.2 --seed 15 "
+                           "--pixel-type " +
+                               pixel));
+    const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
+                             " --void bright --column 0,0,5 --slab-voxels 4 -o ";
+    const auto serial = (tmp / (pixel + "_serial.h5")).string();
+    ASSERT_EQ(runShell(vox + args + shellQuote(serial)), 0) << pixel;
+    const Bed ref = readBed(serial);
+    EXPECT_EQ(ref.provenance["ingest"]["threshold"]["method"], "volume")
+        << pixel << ": " << ref.provenance["ingest"]["threshold"].dump();
+    for (int n : {2, 3}) {
+      const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();
+      ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0)
+          << pixel << ", " << n << " ranks";
+      const Bed b = readBed(out);
+      EXPECT_TRUE(b.indicator.values() == ref.indicator.values()) << pixel << ", " << n;
+      EXPECT_EQ(runlessProvenance(b.provenance), runlessProvenance(ref.provenance))
+          << pixel << ", " << n << ": "
+          << json::diff(runlessProvenance(ref.provenance), runlessProvenance(b.provenance)).dump();
+    }
+  }
 }

@@ -1,4 +1,4 @@
-// Streamed ingest (issue 13, docs/scale_ingest.md): the bed written slab by slab with tiny
+// Streamed ingest (issue 13, docs/scale.md): the bed written slab by slab with tiny
 // slabs (--slab-voxels) equals in-memory ingest's byte for byte, for every option set the
 // streamed path supports and every input kind it reads by slab; options and inputs
 // without a streamed path are refused up front with exit 2 and the estimate.
@@ -295,7 +295,7 @@ TEST(StreamedIngest, OverBudgetWithoutStreamedPathIsRefusedUpFront) {
     std::string says;
   };
   const std::vector<Case> cases = {
-      {{}, "volume-preserving threshold"},  // the default pipeline
+      {{}, "column fit"},  // the default pipeline (its volume threshold streams)
       {{"--threshold", "otsu", "--column", "none", "--labels"}, "watershed labels"},
       {{"--threshold", "otsu", "--column", "none", "--bias-correction", "n4"}, "N4"},
       {{"--threshold", "otsu", "--column", "none", "--denoise", "curvature"}, "curvature"},

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "voxpack/core/bed.hpp"
 #include "voxpack/core/memory.hpp"
@@ -148,6 +149,11 @@ double packedRegionDensity(const Bed& bed, std::int64_t* firstSlice = nullptr,
 /// any bed; {-1, -1} when there is none. Leaves out the headspace and a lid.
 std::pair<std::int64_t, std::int64_t> bedSlices(const Grid<std::uint8_t>& indicator,
                                                 const Grid<std::uint8_t>* mask);
+
+/// bedSlices' rule on per-slice counts: `in` voxels of the region and `solid` of them solid
+/// (the streamed path's shares come from the mean intensity, not a segmentation).
+std::pair<std::int64_t, std::int64_t> bedSlicesFromCounts(const std::vector<double>& in,
+                                                          const std::vector<double>& solid);
 
 /// Sphere-equivalent particle diameter 6V/S in voxels = 1.5 x the mean solid chord along
 /// x, y, z inside `region` (null: everywhere); 0 when there is no solid chord.

@@ -1,6 +1,6 @@
 #pragma once
 /// \file stream.hpp
-/// Streamed ingest for volumes bigger than the memory budget (docs/scale_ingest.md): the
+/// Streamed ingest for volumes bigger than the memory budget (docs/scale.md): the
 /// image header is read alone, the voxels by z-slab with the halo each step needs, the
 /// threshold comes from a value histogram streamed in a first pass, and the bed is written
 /// slab by slab. For the option sets it supports the bed equals in-memory ingest's byte
@@ -57,14 +57,16 @@ std::string streamedIngestUnsupported(const IngestOptions& options, const Volume
 /// Planes of halo each side of a slab: denoise radius + (speck + 1) + (hole + 1).
 std::int64_t streamedHaloPlanes(const IngestOptions& options, std::int64_t nz);
 
-/// Peak bytes of the streamed path with slabs of `slabPlanes` own planes.
+/// Peak bytes of the streamed path with slabs of `slabPlanes` own planes on `threads`
+/// threads (the volume threshold's sample slab holds per-thread buffers).
 std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& header, const IngestOptions& options,
-                                          std::int64_t slabPlanes);
+                                          std::int64_t slabPlanes, int threads = 1);
 
 /// Own planes per slab: `slabPlanes` (capped at nz) when > 0 (--slab-voxels), else the
 /// most that fit in `budget` (0 when not even one plane fits).
 std::int64_t streamedSlabPlanes(const VolumeHeader& header, const IngestOptions& options,
-                                const MemoryBudget& budget, std::int64_t slabPlanes);
+                                const MemoryBudget& budget, std::int64_t slabPlanes,
+                                int threads = 1);
 
 /// What a streamed ingest produced (the bed is on disk).
 struct StreamedIngestResult {

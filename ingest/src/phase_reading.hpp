@@ -1,0 +1,25 @@
+#pragma once
+// The phase levels as the volume threshold reads them (not public): shared by the in-memory
+// pipeline and the streamed path's sample slab.
+#include <cstdint>
+
+#include "voxpack/core/grid.hpp"
+#include "voxpack/ingest/phases.hpp"
+
+namespace voxpack::ingest {
+
+/// The noise and the two phases' levels of a grey image and its preliminary segmentation.
+struct PhaseReading {
+  PhaseLevels levels;        ///< fitPhaseLevels with the deep levels as hints
+  DeepLevel deep[2];         ///< solid, void: read deep inside each phase
+  double interiorSigma = 0;  ///< noise sigma from voxel pairs deep in the void phase
+};
+
+/// Reads the noise deep in the void, each phase's level deep inside it (a ball of 3 blur
+/// sigma, 3.5 to 15 voxels), and fits the levels with those as hints, over `region` (null:
+/// everywhere). `tail`: each deep level from its far tail (--phase-level tail).
+PhaseReading readPhaseLevels(const Grid<float>& raw, const Grid<std::uint8_t>& prelim,
+                             const Grid<std::uint8_t>* region, double blurVoxels, bool voidBright,
+                             NoiseModel model, bool tail, int threads);
+
+}  // namespace voxpack::ingest
