@@ -383,7 +383,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
     return out;
   }
 
-  // Pass: the exact counts of the image the threshold cuts, over the bed's slices and the core.
+  // Pass: the counts of the image the threshold cuts over the bed's slices and the region.
   IngestOptions oc = o;
   oc.denoise = out.cut;
   const int P = comm ? comm->size() : 1, me = comm ? comm->rank() : 0;
@@ -406,12 +406,19 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
     out.ring = 0;
     const auto whole = ringRegion(sl, rings, 0, true);
     bedRegion = sampleBedRegion(&*whole);
+    out.thresholdJson["region_ring_voxels"] = 0;
     out.thresholdJson["wall_blur_correction"] = {
         {"applied", true},
         {"blur_mm", seen.blurMm},
         {"reach_mm", fix.correction.reachSigmas * seen.blurMm},
         {"model", fix.correction.rician ? "rician (signal-free wall)" : "grey levels"}};
   }
+  if (!out.fix)
+    out.thresholdJson["wall_blur_correction"] = {
+        {"applied", false},
+        {"note", !hasColumn ? "no column"
+                 : !refined ? "no wall step seen in the sample slab"
+                            : "--no-wall-blur-correction"}};
   const WallFix* fix = out.fix ? &*out.fix : nullptr;
   RingSums corrected;  // the raw sums again, of the corrected image
   if (fix) {
