@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "pack_modes.hpp"
+#include "scene_text.hpp"
 #include "voxel_choice.hpp"
 #include "voxpack/core/atomic_file.hpp"
 #include "voxpack/core/bed_file.hpp"
@@ -265,8 +266,13 @@ class PackCommand final : public Command {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec))
       throw IoError("--config " + file.string() + ": no such file");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw IoError("--config " + file.string() + ": cannot be read");
+    std::ostringstream text;
+    text << in.rdbuf();
+    rejectNonAsciiOutsideStrings(text.str(), file.string());
     try {
-      return toml::parse_file(file.string());
+      return toml::parse(text.str(), file.string());
     } catch (const toml::parse_error& e) {
       std::ostringstream s;
       s << file.string() << ":" << e.source().begin.line << ": " << e.description();

@@ -359,7 +359,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       if (P > 1) comm->sum(bins);  // integer-valued counts: exact in any order
     }
     tOtsu = otsuFromBins(bins, lo, hi, lat.size());
-    t = o.threshold == ThresholdMethod::Otsu ? tOtsu : kmeansFromCounts(sorted, lo, hi);
+    t = o.threshold == ThresholdMethod::KMeans ? kmeansFromCounts(sorted, lo, hi) : tOtsu;
     if (volume) {
       // Otsu's class means (bin centres): the per-plane unmixing that finds the bed's slices.
       double n0 = 0, s0 = 0, n1 = 0, s1 = 0;

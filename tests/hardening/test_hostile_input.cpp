@@ -52,6 +52,25 @@ TEST(HostileInput, TomlSupersampleOverflowRefusedNamingKey) {
   expectOneLineRefusal(r, {"s.toml:7", "supersample = 4294967297", "1..8"});
 }
 
+// fuzz_scene, 2026-12-07: toml++ 3.3 reached __builtin_unreachable on a non-ASCII character
+// where it expected whitespace (fuzz/findings/scene). Refused before the parser; a
+// non-ASCII string or comment is still read.
+TEST(HostileInput, TomlNonAsciiOutsideStringsRefusedBeforeTheParser) {
+  TempDir tmp;
+  const auto scene = tmp / "s.toml";
+  std::ofstream(scene, std::ios::binary)
+      << "#!ring:d=5,di=1,l=2\nmode =\xd1\xa0" << '0' << std::string(1, '\0') << " \"mc\"\n";
+  expectOneLineRefusal(
+      runTimed({"pack", "--config", scene.string(), "-o", (tmp / "x.h5").string()}),
+      {"s.toml:2", "non-ASCII character outside a string or comment"});
+  std::ofstream(scene) << "# M\xc3\xbcller's bed\nmode = \"mc\"\nshape = \"sphere:d=3\"\n"
+                          "container = \"cylinder:d=10,h=10\"\nvoxel_size_mm = 0.5\ncount = 2\n"
+                          "seed = 1\nmulti = \"\"\"\\\n\xc2\xa7\"\"\"\n";
+  expectOneLineRefusal(
+      runTimed({"pack", "--config", scene.string(), "-o", (tmp / "x.h5").string()}),
+      {"s.toml:9", "in a multi-line string"});
+}
+
 TEST(HostileInput, TomlIntegerKeysOutOfTheirTypeRefused) {
   TempDir tmp;
   const std::string base =
