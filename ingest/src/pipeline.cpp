@@ -256,7 +256,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
         column.wallThicknessMm = seen.wallThicknessMm;
         // The grey-level wall correction (XMT) needs the wall's and the outside's levels:
         // without them it divided the bed next to the wall as if both were 0 (+0.027
-        // density on the XMT 20/d fidelity test with the true column given, +0.02..0.04 on
+        // density on the XMT 20/d fidelity test with the true column given, +0.020..0.053 on
         // the fidelity benchmark).
         column.wallLevel = seen.wallLevel;
         column.outsideLevel = seen.outsideLevel;
