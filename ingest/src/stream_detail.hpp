@@ -45,7 +45,6 @@ struct ValueCounts {
   bool overflow = false;  ///< more distinct values than kMaxDistinct (or, over ranks, any other)
   float lo = std::numeric_limits<float>::infinity();
   float hi = -std::numeric_limits<float>::infinity();
-  std::uint64_t total = 0;
   void add(float v);
   /// Sums over the ranks (integer counts: exact in any order); values outside the flat
   /// array on any rank set `overflow` on all.
@@ -76,6 +75,8 @@ struct RingSums {
   std::vector<std::uint8_t> ring;  ///< wallRings of a plane
   std::vector<double> perRing;     ///< pixels of a plane per ring (kOutside + 1 entries)
   std::vector<double> sum;         ///< [plane * (kOutside + 1) + ring]
+  /// Zero sums for `nz` planes over the ring map `rings`.
+  void reset(std::vector<std::uint8_t> rings, std::int64_t nz);
   /// Adds planes [from, to) of `raw` (local indices), which start at global plane z.
   void add(const Grid<float>& raw, std::int64_t from, std::int64_t to, std::int64_t z);
 };
@@ -85,6 +86,9 @@ struct WallFix {
   ColumnFit column;               ///< the given column
   WallBlurCorrection correction;  ///< blur, levels and model from the sample slab
 };
+
+/// Planes the denoise filter reads beyond a slab on each side (0: none).
+std::int64_t denoiseHalo(const IngestOptions& o);
 
 /// The denoised image over planes [a, b) (the filter's halo read and dropped). `fix`, when
 /// given, divides the wall's blur out of the raw slab first; `raw`, when given, gets the

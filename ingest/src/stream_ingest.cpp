@@ -28,12 +28,6 @@ using namespace stream_detail;
 constexpr std::size_t kMaxDistinctValues = ValueCounts::kMaxDistinct;
 // Resident bytes of the process before any volume (libraries, ITK factories, HDF5).
 
-std::int64_t denoiseHalo(const IngestOptions& o) {
-  if (o.denoise == DenoiseMethod::Median) return 1;
-  if (o.denoise == DenoiseMethod::MedianBox) return o.medianRadiusVoxels;
-  return 0;
-}
-
 // A component of at most m voxels spans at most m planes; one more plane keeps the cut
 // planes (counted as border by the flood fill) out of its reach.
 std::int64_t cleanupHalo(std::size_t m, std::int64_t nz) {
@@ -131,6 +125,12 @@ void checkCancel(Progress& progress) {
 
 }  // namespace
 
+std::int64_t stream_detail::denoiseHalo(const IngestOptions& o) {
+  if (o.denoise == DenoiseMethod::Median) return 1;
+  if (o.denoise == DenoiseMethod::MedianBox) return o.medianRadiusVoxels;
+  return 0;
+}
+
 // Planes within the halo of a cut are wrong and dropped; at the volume's own faces the
 // filter clamps exactly as on the whole volume.
 Grid<float> stream_detail::denoisedPlanes(const VolumeHeader& h, const IngestOptions& o,
@@ -187,8 +187,9 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
   const std::uint64_t perRead = std::max<std::uint64_t>(8, 3);
   const std::uint64_t search =
       cleanupSearchBytes(std::max(o.maxSpeckVoxels, o.maxHoleVoxels), read * plane);
-  std::uint64_t bytes =
+  const std::uint64_t slabs =
       perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
+  std::uint64_t bytes = slabs;
   // The first pass's exact value histogram (hash map node + bucket) and Otsu's bins.
   // A median or none selects input values, so an 8/16-bit file has at most 2^8/2^16.
   const bool volume =
@@ -212,8 +213,6 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
     // beside pass 1's sums and counts (counted above, outside the slabs' share).
     const std::int64_t sp = volumeSamplePlanes(l);
     const Lattice sample = subLattice(l, {{0, 0, 0}, {sp, l.ny(), l.nx()}});
-    const std::uint64_t slabs =
-        perRead * read * plane + 3 * static_cast<std::uint64_t>(t) * plane + 26 * plane + search;
     const std::uint64_t samplePhase = bytes - slabs - kIngestProcessBaseBytes +
                                       estimateIngestPeakBytes(sample, o, std::nullopt, threads);
     // After it, its per-thread slice buffers (the dip test's memos, 47 B per plane voxel,
@@ -305,10 +304,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     ValueCounts vc;
     RingSums rs;
     if (volume) {
-      rs.ring = wallRings(lat, column.found ? &column : nullptr);
-      rs.perRing.assign(kOutside + 1, 0.0);
-      for (std::uint8_t r : rs.ring) rs.perRing[r] += 1.0;
-      rs.sum.assign(static_cast<std::size_t>(nz) * (kOutside + 1), 0.0);
+      rs.reset(wallRings(lat, column.found ? &column : nullptr), nz);
     }
     const std::int64_t own = (slabs - me + P - 1) / P;  // slabs me, me + P, ...
     SlabProgress sp(progress, "threshold histogram (pass 1)", own, "ingest");

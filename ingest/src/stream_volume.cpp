@@ -32,7 +32,6 @@ namespace voxpack::ingest::stream_detail {
 void ValueCounts::add(float v) {
   lo = std::min(lo, v);
   hi = std::max(hi, v);
-  ++total;
   if (v >= 0.0f && v < 65536.0f && v == std::floor(v)) {
     ++small[static_cast<std::size_t>(v)];
   } else if (!overflow) {
@@ -51,9 +50,6 @@ void ValueCounts::reduce(const Communicator* comm) {
   comm->sum(small);
   lo = static_cast<float>(comm->min(static_cast<double>(lo)));
   hi = static_cast<float>(comm->max(static_cast<double>(hi)));
-  std::vector<std::uint64_t> t{total};
-  comm->sum(t);
-  total = t[0];
   if (!comm->allTrue(other.empty() && !overflow)) {
     overflow = true;
     other = {};
@@ -127,6 +123,13 @@ std::vector<std::uint8_t> wallRings(const Lattice& l, const ColumnFit* column) {
                      : static_cast<std::uint8_t>(std::min<double>(kRings, std::floor(depth)));
   });
   return ring;
+}
+
+void RingSums::reset(std::vector<std::uint8_t> rings, std::int64_t nz) {
+  ring = std::move(rings);
+  perRing.assign(kOutside + 1, 0.0);
+  for (std::uint8_t r : ring) perRing[r] += 1.0;
+  sum.assign(static_cast<std::size_t>(nz) * (kOutside + 1), 0.0);
 }
 
 void RingSums::add(const Grid<float>& raw, std::int64_t from, std::int64_t to, std::int64_t z) {
@@ -231,7 +234,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   }
   const std::int64_t S = s1 - s0;
   const Lattice sl = subLattice(lat, {{s0, 0, 0}, {S, lat.ny(), lat.nx()}});
-  const std::vector<std::uint8_t> rings = wallRings(lat, column);
+  const std::vector<std::uint8_t>& rings = sums.ring;
   progress.report("ingest: volume threshold, sample slab", 0.0);
   // The bed's end slices are left out (a floor or lid's blur reaches 3 sigma in).
   auto trimBed = [&](double blur) {
@@ -265,9 +268,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   ColumnFit seen;
   DeepLevel deep[2];
   {
-    const std::int64_t hd = o.denoise == DenoiseMethod::Median      ? 1
-                            : o.denoise == DenoiseMethod::MedianBox ? o.medianRadiusVoxels
-                                                                    : 0;
+    const std::int64_t hd = denoiseHalo(o);
     const std::int64_t ra = std::max<std::int64_t>(0, s0 - hd), rb = std::min(nz, s1 + hd);
     Grid<float> raw = readVolumeSlab(h, ra, rb);
     Grid<float> den = o.denoise == DenoiseMethod::Median ? crossMedianFilter(raw, threads)
@@ -422,9 +423,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   const WallFix* fix = out.fix ? &*out.fix : nullptr;
   RingSums corrected;  // the raw sums again, of the corrected image
   if (fix) {
-    corrected.ring = rings;
-    corrected.perRing = sums.perRing;
-    corrected.sum.assign(sums.sum.size(), 0.0);
+    corrected.reset(rings, nz);
   }
   auto inRegion = [&](std::size_t p) { return rings[p] >= ring && rings[p] <= kRings; };
   ValueCounts counts;
