@@ -14,10 +14,6 @@
 namespace voxpack::ingest {
 namespace {
 
-struct SlabFit {
-  double zMm, xMm, yMm, radiusMm;
-};
-
 struct Circle {
   double cx = 0, cy = 0, r = 0;
   bool ok = false;
@@ -115,106 +111,109 @@ std::vector<std::int32_t> components(const std::vector<std::uint8_t>& in, std::i
 
 }  // namespace
 
-ColumnFit fitColumn(const Grid<std::uint8_t>& ind, const ColumnFitOptions& o) {
-  if (o.slabSlices < 4) throw InputError("column fit: slab must hold >= 4 slices");
-  if (!(o.solidFraction > 0.5 && o.solidFraction <= 1.0))
-    throw InputError("column fit: solid fraction must be in (0.5, 1]");
-  const Lattice& l = ind.lattice();
-  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
-  ColumnFit fit;
-  fit.zRefMm = l.originMm[0] + 0.5 * static_cast<double>(nz - 1) * l.spacingMm[0];
-  const std::int64_t slabs = std::max<std::int64_t>(1, nz / o.slabSlices);
+namespace column_detail {
+
+std::int64_t columnSlabs(std::int64_t nz, int slabSlices) {
+  return std::max<std::int64_t>(1, nz / slabSlices);
+}
+
+SlabCircle fitSlabCircle(const std::vector<std::int32_t>& solidCount, const Lattice& l,
+                         std::int64_t z0, std::int64_t z1, const ColumnFitOptions& o) {
+  const std::int64_t ny = l.ny(), nx = l.nx();
   const auto plane = static_cast<std::size_t>(ny * nx);
-  std::vector<SlabFit> fits;
-  bool touches = false;
-  for (std::int64_t s = 0; s < slabs; ++s) {
-    const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
-    std::vector<std::int32_t> solidCount(plane, 0);
-    for (std::int64_t k = z0; k < z1; ++k) {
-      const std::uint8_t* sl = ind.data() + l.offset(k, 0, 0);
-      for (std::size_t p = 0; p < plane; ++p) solidCount[p] += sl[p] == 0;
+  SlabCircle out;
+  // "Always solid" pixels are the wall (and, in MRI, the signal-free outside). The
+  // column is an open region they bound: enclosed, or cut by the image border when the
+  // column fills the field of view.
+  const double slices = static_cast<double>(z1 - z0);
+  const double need = o.solidFraction * slices;
+  std::vector<std::uint8_t> open(plane);
+  for (std::size_t p = 0; p < plane; ++p) open[p] = solidCount[p] < need;
+  std::vector<std::size_t> sizes;
+  const auto label = components(open, ny, nx, sizes);
+  // Score the candidates: the bed has pixels that are void in some slices and solid in
+  // others; air around an XMT column (and a headspace) is void throughout. Then prefer
+  // a region that does not touch the border, then the larger.
+  std::vector<double> mixed(sizes.size(), 0.0);
+  std::vector<std::uint8_t> border(sizes.size(), 0);
+  for (std::int64_t j = 0; j < ny; ++j)
+    for (std::int64_t i = 0; i < nx; ++i) {
+      const auto p = static_cast<std::size_t>(j * nx + i);
+      const auto id = static_cast<std::size_t>(label[p]);
+      if (!id) continue;
+      const double solidShare = solidCount[p] / slices;
+      mixed[id] += solidShare > 0.1 && solidShare < 0.9;
+      if (j == 0 || i == 0 || j == ny - 1 || i == nx - 1) border[id] = 1;
     }
-    // "Always solid" pixels are the wall (and, in MRI, the signal-free outside). The
-    // column is an open region they bound: enclosed, or cut by the image border when the
-    // column fills the field of view.
-    const double slices = static_cast<double>(z1 - z0);
-    const double need = o.solidFraction * slices;
-    std::vector<std::uint8_t> open(plane);
-    for (std::size_t p = 0; p < plane; ++p) open[p] = solidCount[p] < need;
-    std::vector<std::size_t> sizes;
-    const auto label = components(open, ny, nx, sizes);
-    // Score the candidates: the bed has pixels that are void in some slices and solid in
-    // others; air around an XMT column (and a headspace) is void throughout. Then prefer
-    // a region that does not touch the border, then the larger.
-    std::vector<double> mixed(sizes.size(), 0.0);
-    std::vector<std::uint8_t> border(sizes.size(), 0);
-    for (std::int64_t j = 0; j < ny; ++j)
-      for (std::int64_t i = 0; i < nx; ++i) {
-        const auto p = static_cast<std::size_t>(j * nx + i);
-        const auto id = static_cast<std::size_t>(label[p]);
-        if (!id) continue;
-        const double solidShare = solidCount[p] / slices;
-        mixed[id] += solidShare > 0.1 && solidShare < 0.9;
-        if (j == 0 || i == 0 || j == ny - 1 || i == nx - 1) border[id] = 1;
-      }
-    std::size_t best = 0;
-    auto score = [&](std::size_t id) {
-      return std::make_tuple(mixed[id] > 0.02 * static_cast<double>(sizes[id]) ? 1 : 0,
-                             border[id] ? 0 : 1, sizes[id]);
-    };
-    for (std::size_t id = 1; id < sizes.size(); ++id) {
-      if (sizes[id] < 16 || static_cast<double>(sizes[id]) < 0.05 * static_cast<double>(plane))
-        continue;
-      if (best == 0 || score(id) > score(best)) best = id;
-    }
-    if (best == 0) continue;
-    // Edge points: midway between a column pixel and its always-solid 4-neighbour.
-    std::vector<std::array<double, 2>> pts;
-    for (std::int64_t j = 0; j < ny; ++j)
-      for (std::int64_t i = 0; i < nx; ++i) {
-        if (static_cast<std::size_t>(label[static_cast<std::size_t>(j * nx + i)]) != best) continue;
-        const std::int64_t cand[4][2] = {{j - 1, i}, {j + 1, i}, {j, i - 1}, {j, i + 1}};
-        for (const auto& c : cand) {
-          if (c[0] < 0 || c[1] < 0 || c[0] >= ny || c[1] >= nx) continue;
-          if (open[static_cast<std::size_t>(c[0] * nx + c[1])]) continue;
-          pts.push_back({0.5 * static_cast<double>(i + c[1]), 0.5 * static_cast<double>(j + c[0])});
-        }
-      }
-    if (pts.size() < 12) continue;
-    const Circle c = robustCircle(pts, 1.5);
-    if (!c.ok || c.r < 4.0) continue;
-    // The fitted points must span a good part of the circle (not one straight wall).
-    double sx = 0, sy = 0;
-    std::size_t used = 0;
-    for (const auto& p : pts) {
-      if (std::abs(std::hypot(p[0] - c.cx, p[1] - c.cy) - c.r) > 2.0) continue;
-      sx += (p[0] - c.cx) / c.r;
-      sy += (p[1] - c.cy) / c.r;
-      ++used;
-    }
-    if (used < 12 || std::hypot(sx, sy) / static_cast<double>(used) > 0.8) continue;
-    // Most edge points must lie on the circle, and its inside must not be always solid (a
-    // porous solid cut as a cube has always-solid blobs everywhere, a bed has none).
-    if (static_cast<double>(used) < 0.5 * static_cast<double>(pts.size())) continue;
-    double inside = 0, inSolid = 0;
-    for (std::int64_t j = 0; j < ny; ++j)
-      for (std::int64_t i = 0; i < nx; ++i) {
-        const double rr = std::hypot(static_cast<double>(i) - c.cx, static_cast<double>(j) - c.cy);
-        if (rr >= c.r - 2.0) continue;
-        inside += 1;
-        inSolid += !open[static_cast<std::size_t>(j * nx + i)];
-      }
-    if (inside <= 0 || inSolid > 0.1 * inside) continue;
-    if (c.cx - c.r < -0.5 || c.cy - c.r < -0.5 || c.cx + c.r > static_cast<double>(nx) - 0.5 ||
-        c.cy + c.r > static_cast<double>(ny) - 0.5)
-      touches = true;
-    SlabFit f;
-    f.zMm = l.originMm[0] + 0.5 * static_cast<double>(z0 + z1 - 1) * l.spacingMm[0];
-    f.xMm = l.originMm[2] + c.cx * l.spacingMm[2];
-    f.yMm = l.originMm[1] + c.cy * l.spacingMm[1];
-    f.radiusMm = c.r * std::sqrt(l.spacingMm[1] * l.spacingMm[2]);
-    fits.push_back(f);
+  std::size_t best = 0;
+  auto score = [&](std::size_t id) {
+    return std::make_tuple(mixed[id] > 0.02 * static_cast<double>(sizes[id]) ? 1 : 0,
+                           border[id] ? 0 : 1, sizes[id]);
+  };
+  for (std::size_t id = 1; id < sizes.size(); ++id) {
+    if (sizes[id] < 16 || static_cast<double>(sizes[id]) < 0.05 * static_cast<double>(plane))
+      continue;
+    if (best == 0 || score(id) > score(best)) best = id;
   }
+  if (best == 0) return out;
+  // Edge points: midway between a column pixel and its always-solid 4-neighbour.
+  std::vector<std::array<double, 2>> pts;
+  for (std::int64_t j = 0; j < ny; ++j)
+    for (std::int64_t i = 0; i < nx; ++i) {
+      if (static_cast<std::size_t>(label[static_cast<std::size_t>(j * nx + i)]) != best) continue;
+      const std::int64_t cand[4][2] = {{j - 1, i}, {j + 1, i}, {j, i - 1}, {j, i + 1}};
+      for (const auto& c : cand) {
+        if (c[0] < 0 || c[1] < 0 || c[0] >= ny || c[1] >= nx) continue;
+        if (open[static_cast<std::size_t>(c[0] * nx + c[1])]) continue;
+        pts.push_back({0.5 * static_cast<double>(i + c[1]), 0.5 * static_cast<double>(j + c[0])});
+      }
+    }
+  if (pts.size() < 12) return out;
+  const Circle c = robustCircle(pts, 1.5);
+  if (!c.ok || c.r < 4.0) return out;
+  // The fitted points must span a good part of the circle (not one straight wall).
+  double sx = 0, sy = 0;
+  std::size_t used = 0;
+  for (const auto& p : pts) {
+    if (std::abs(std::hypot(p[0] - c.cx, p[1] - c.cy) - c.r) > 2.0) continue;
+    sx += (p[0] - c.cx) / c.r;
+    sy += (p[1] - c.cy) / c.r;
+    ++used;
+  }
+  if (used < 12 || std::hypot(sx, sy) / static_cast<double>(used) > 0.8) return out;
+  // Most edge points must lie on the circle, and its inside must not be always solid (a
+  // porous solid cut as a cube has always-solid blobs everywhere, a bed has none).
+  if (static_cast<double>(used) < 0.5 * static_cast<double>(pts.size())) return out;
+  double inside = 0, inSolid = 0;
+  for (std::int64_t j = 0; j < ny; ++j)
+    for (std::int64_t i = 0; i < nx; ++i) {
+      const double rr = std::hypot(static_cast<double>(i) - c.cx, static_cast<double>(j) - c.cy);
+      if (rr >= c.r - 2.0) continue;
+      inside += 1;
+      inSolid += !open[static_cast<std::size_t>(j * nx + i)];
+    }
+  if (inside <= 0 || inSolid > 0.1 * inside) return out;
+  out.touches = c.cx - c.r < -0.5 || c.cy - c.r < -0.5 ||
+                c.cx + c.r > static_cast<double>(nx) - 0.5 ||
+                c.cy + c.r > static_cast<double>(ny) - 0.5;
+  out.found = true;
+  out.zMm = l.originMm[0] + 0.5 * static_cast<double>(z0 + z1 - 1) * l.spacingMm[0];
+  out.xMm = l.originMm[2] + c.cx * l.spacingMm[2];
+  out.yMm = l.originMm[1] + c.cy * l.spacingMm[1];
+  out.radiusMm = c.r * std::sqrt(l.spacingMm[1] * l.spacingMm[2]);
+  return out;
+}
+
+ColumnFit combineSlabCircles(const std::vector<SlabCircle>& slabs, const Lattice& l) {
+  ColumnFit fit;
+  fit.zRefMm = l.originMm[0] + 0.5 * static_cast<double>(l.nz() - 1) * l.spacingMm[0];
+  std::vector<SlabCircle> fits;
+  bool touches = false;
+  for (const auto& s : slabs)
+    if (s.found) {
+      fits.push_back(s);
+      touches |= s.touches;
+    }
   fit.slabs = static_cast<int>(fits.size());
   if (fits.empty()) {
     fit.note = "no column seen (no always-solid wall bounding the bed)";
@@ -256,6 +255,29 @@ ColumnFit fitColumn(const Grid<std::uint8_t>& ind, const ColumnFitOptions& o) {
   fit.note = "circle fit over " + std::to_string(m) + " slab(s)" +
              (touches ? ", column cut by the field of view" : "");
   return fit;
+}
+
+}  // namespace column_detail
+
+ColumnFit fitColumn(const Grid<std::uint8_t>& ind, const ColumnFitOptions& o) {
+  if (o.slabSlices < 4) throw InputError("column fit: slab must hold >= 4 slices");
+  if (!(o.solidFraction > 0.5 && o.solidFraction <= 1.0))
+    throw InputError("column fit: solid fraction must be in (0.5, 1]");
+  const Lattice& l = ind.lattice();
+  const std::int64_t nz = l.nz();
+  const std::int64_t slabs = column_detail::columnSlabs(nz, o.slabSlices);
+  const auto plane = static_cast<std::size_t>(l.ny() * l.nx());
+  std::vector<column_detail::SlabCircle> fits;
+  for (std::int64_t s = 0; s < slabs; ++s) {
+    const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
+    std::vector<std::int32_t> solidCount(plane, 0);
+    for (std::int64_t k = z0; k < z1; ++k) {
+      const std::uint8_t* sl = ind.data() + l.offset(k, 0, 0);
+      for (std::size_t p = 0; p < plane; ++p) solidCount[p] += sl[p] == 0;
+    }
+    fits.push_back(column_detail::fitSlabCircle(solidCount, l, z0, z1, o));
+  }
+  return column_detail::combineSlabCircles(fits, l);
 }
 
 Grid<std::uint8_t> columnMask(const Lattice& l, const ColumnFit& c) {

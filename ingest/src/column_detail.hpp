@@ -1,6 +1,7 @@
 #pragma once
 // Geometry shared by the column mask and the wall-blur correction (not public).
 #include <cstdint>
+#include <vector>
 
 #include "voxpack/ingest/column.hpp"
 
@@ -21,5 +22,55 @@ void forEachInPlane(const Lattice& l, const ColumnFit& c, std::int64_t k, F&& f)
     }
   }
 }
+
+/// Slabs of fitColumn and refineColumn over nz planes: slab s holds planes
+/// [s nz / slabs, (s + 1) nz / slabs).
+std::int64_t columnSlabs(std::int64_t nz, int slabSlices);
+
+/// One slab's circle of fitColumn (found = false: none seen in that slab).
+struct SlabCircle {
+  bool found = false;
+  bool touches = false;  ///< the circle leaves the field of view
+  double zMm = 0, xMm = 0, yMm = 0, radiusMm = 0;
+};
+
+/// fitColumn's circle of the slab of planes [z0, z1) of lattice `l`, from each pixel's count
+/// of solid voxels over those planes.
+SlabCircle fitSlabCircle(const std::vector<std::int32_t>& solidCount, const Lattice& l,
+                         std::int64_t z0, std::int64_t z1, const ColumnFitOptions& options);
+
+/// fitColumn's axis (least squares through the slab centres) and median radius.
+ColumnFit combineSlabCircles(const std::vector<SlabCircle>& slabs, const Lattice& l);
+
+/// Throws InputError for refineColumn options out of range.
+void checkRefineOptions(const ColumnRefineOptions& options);
+
+/// refineColumn's radial wall profiles of one iteration, filled plane by plane (in any
+/// order of slabs; within a slab in increasing z, as the in-memory refinement does).
+class WallProfiles {
+ public:
+  /// Profiles about `fit` for the image lattice `l` (the whole volume's).
+  WallProfiles(const Lattice& l, const ColumnFit& fit, double innerW,
+               const ColumnRefineOptions& options);
+  /// Adds plane k (global index) of values `plane` (ny x nx).
+  void addPlane(const float* plane, std::int64_t k);
+  /// Every profile's numbers, flat (to sum over processes that each filled other slabs).
+  std::vector<double>& flat() { return data_; }
+  /// The refinement step: the refined fit (refined = true), or `rough` with a note.
+  /// `innerW` gets the next iteration's inner width; `done` is set when the refinement
+  /// stopped (returned rough), so no iteration follows.
+  ColumnFit fit(const ColumnFit& rough, double& innerW, bool& done) const;
+  /// Whether the fit's radius is large enough to refine at this inner width.
+  static bool usable(const Lattice& l, const ColumnFit& fit, double innerW);
+
+ private:
+  Lattice l_;
+  ColumnFit fit_;
+  ColumnRefineOptions o_;
+  double innerW_ = 4.0, r0_ = 0;
+  std::int64_t slabs_ = 1;
+  std::size_t bins_ = 0, stride_ = 0;
+  std::vector<double> data_;  // per (slab, sector): bins sums, bins counts, sum cos, sum sin
+};
 
 }  // namespace voxpack::ingest::column_detail

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <vector>
 
+#include "column_detail.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/ingest/column.hpp"
 
@@ -226,180 +227,200 @@ Circle fitCircle(const std::vector<std::array<double, 2>>& pts) {
 
 }  // namespace
 
-ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
-                       const ColumnRefineOptions& o) {
-  if (o.slabSlices < 4 || o.sectors < 6 || o.iterations < 1)
-    throw InputError("column refinement: slab >= 4 slices, >= 6 sectors, >= 1 iteration");
-  if (!rough.found) return rough;
-  const Lattice& l = image.lattice();
-  const std::int64_t nz = l.nz(), ny = l.ny(), nx = l.nx();
-  const double sx = l.spacingMm[2], sy = l.spacingMm[1];
-  if (std::abs(sx - sy) > 1e-6 * sx) return rough;  // in-plane pixels must be square
-  const std::int64_t slabs = std::max<std::int64_t>(1, nz / o.slabSlices);
-  ColumnFit fit = rough;
-  double innerW = 4.0;
-  const double outerW = 8.0;
-  for (int iter = 0; iter < o.iterations; ++iter) {
-    const double r0 = fit.radiusMm / sx;
-    if (r0 < innerW + 2) return rough;
-    std::vector<Profile> prof(static_cast<std::size_t>(slabs * o.sectors));
-    for (auto& p : prof) p.init(-innerW, outerW);
-    for (std::int64_t s = 0; s < slabs; ++s) {
-      const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
-      for (std::int64_t k = z0; k < z1; ++k) {
-        const double z = l.originMm[0] + static_cast<double>(k) * l.spacingMm[0];
-        const double ax = (fit.axisXMm + fit.slopeX * (z - fit.zRefMm) - l.originMm[2]) / sx;
-        const double ay = (fit.axisYMm + fit.slopeY * (z - fit.zRefMm) - l.originMm[1]) / sy;
-        const double rOut = r0 + outerW, rIn = r0 - innerW;
-        const auto j0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor(ay - rOut)));
-        const auto j1 = std::min(ny - 1, static_cast<std::int64_t>(std::ceil(ay + rOut)));
-        for (std::int64_t j = j0; j <= j1; ++j) {
-          const double dy = static_cast<double>(j) - ay;
-          const float* row = image.data() + l.offset(k, j, 0);
-          for (std::int64_t i = 0; i < nx; ++i) {
-            const double dx = static_cast<double>(i) - ax;
-            const double r2 = dx * dx + dy * dy;
-            if (r2 < rIn * rIn || r2 >= rOut * rOut) continue;
-            const double r = std::sqrt(r2), u = r - r0;
-            const auto b = static_cast<std::size_t>((u + innerW) / kBin);
-            double th = std::atan2(dy, dx) / (2.0 * std::numbers::pi);
-            if (th < 0) th += 1.0;
-            const auto q =
-                std::min<std::int64_t>(o.sectors - 1, static_cast<std::int64_t>(th * o.sectors));
-            Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
-            if (b >= p.sum.size()) continue;
-            p.sum[b] += o.squared ? static_cast<double>(row[i]) * row[i] : row[i];
-            p.count[b] += 1;
-            p.sc += dx / r;
-            p.ss += dy / r;
-          }
-        }
-      }
+namespace column_detail {
+
+constexpr double kOuterW = 8.0;  // the profile reaches this far beyond the wall, voxels
+
+WallProfiles::WallProfiles(const Lattice& l, const ColumnFit& fit, double innerW,
+                           const ColumnRefineOptions& o)
+    : l_(l), fit_(fit), o_(o), innerW_(innerW) {
+  r0_ = fit.radiusMm / l.spacingMm[2];
+  slabs_ = columnSlabs(l.nz(), o.slabSlices);
+  bins_ = static_cast<std::size_t>(std::ceil((kOuterW + innerW) / kBin));
+  stride_ = 2 * bins_ + 2;
+  data_.assign(static_cast<std::size_t>(slabs_ * o.sectors) * stride_, 0.0);
+}
+
+bool WallProfiles::usable(const Lattice& l, const ColumnFit& fit, double innerW) {
+  return fit.radiusMm / l.spacingMm[2] >= innerW + 2;
+}
+
+void WallProfiles::addPlane(const float* row0, std::int64_t k) {
+  const std::int64_t nz = l_.nz(), ny = l_.ny(), nx = l_.nx();
+  const double sx = l_.spacingMm[2], sy = l_.spacingMm[1];
+  // Slab of plane k: the s with s nz / slabs <= k < (s + 1) nz / slabs.
+  std::int64_t s = std::min(slabs_ - 1, (k * slabs_) / nz);
+  while (s > 0 && k < s * nz / slabs_) --s;
+  while (s + 1 < slabs_ && k >= (s + 1) * nz / slabs_) ++s;
+  const double z = l_.originMm[0] + static_cast<double>(k) * l_.spacingMm[0];
+  const double ax = (fit_.axisXMm + fit_.slopeX * (z - fit_.zRefMm) - l_.originMm[2]) / sx;
+  const double ay = (fit_.axisYMm + fit_.slopeY * (z - fit_.zRefMm) - l_.originMm[1]) / sy;
+  const double rOut = r0_ + kOuterW, rIn = r0_ - innerW_;
+  const auto j0 = std::max<std::int64_t>(0, static_cast<std::int64_t>(std::floor(ay - rOut)));
+  const auto j1 = std::min(ny - 1, static_cast<std::int64_t>(std::ceil(ay + rOut)));
+  for (std::int64_t j = j0; j <= j1; ++j) {
+    const double dy = static_cast<double>(j) - ay;
+    const float* row = row0 + j * nx;
+    for (std::int64_t i = 0; i < nx; ++i) {
+      const double dx = static_cast<double>(i) - ax;
+      const double r2 = dx * dx + dy * dy;
+      if (r2 < rIn * rIn || r2 >= rOut * rOut) continue;
+      const double r = std::sqrt(r2), u = r - r0_;
+      const auto b = static_cast<std::size_t>((u + innerW_) / kBin);
+      double th = std::atan2(dy, dx) / (2.0 * std::numbers::pi);
+      if (th < 0) th += 1.0;
+      const auto q =
+          std::min<std::int64_t>(o_.sectors - 1, static_cast<std::int64_t>(th * o_.sectors));
+      if (b >= bins_) continue;
+      double* p = data_.data() + static_cast<std::size_t>(s * o_.sectors + q) * stride_;
+      p[b] += o_.squared ? static_cast<double>(row[i]) * row[i] : row[i];
+      p[bins_ + b] += 1;
+      p[2 * bins_] += dx / r;
+      p[2 * bins_ + 1] += dy / r;
     }
-    Profile all;
-    all.init(-innerW, outerW);
-    for (const auto& p : prof) all.add(p);
-    // A signal-free (squared, MRI) wall reads as the outside: its thickness is not in the
-    // profile, and holding it there only lends the outside term to the step (measured:
-    // +0.065 density at 10 voxels per d), so a known thickness serves the grey fit alone.
-    Edge global =
-        fitEdge(all, -2.0, 2.0, nullptr, o.squared, o.squared ? 0.0 : o.wallThicknessMm / sx);
-    // A grey wall fitted at the floor may be thinner than the fit resolves: its blurred
-    // bump fixes r + T/2, and the floor then puts the step up to kMinWall / 2 voxels too far
-    // in (-0.66 voxel at 10 voxels per d on a 1.33-voxel wall). The wall held at half the
-    // floor is taken instead when it fits the profile better; held there the radius is off
-    // by at most kMinWall / 4 = 0.625 voxel (docs/ingest.md, "An unresolved wall"). A known
-    // thickness (--column-wall-mm) removes the question.
-    bool unresolved = false;
-    if (!o.squared && !(o.wallThicknessMm > 0.0) && global.wall <= kMinWall + 1e-6) {
-      const Edge thin = fitEdge(all, -2.0, 2.0, nullptr, false, 0.5 * kMinWall);
-      if (thin.sse < global.sse) {
-        global = thin;
-        unresolved = true;
-      }
+  }
+}
+
+ColumnFit WallProfiles::fit(const ColumnFit& rough, double& innerW, bool& done) const {
+  done = true;
+  const std::int64_t nz = l_.nz(), ny = l_.ny(), nx = l_.nx();
+  const double sx = l_.spacingMm[2], sy = l_.spacingMm[1];
+  const double r0 = r0_;
+  const std::int64_t slabs = slabs_;
+  ColumnFit fit = fit_;
+  std::vector<Profile> prof(static_cast<std::size_t>(slabs * o_.sectors));
+  for (std::size_t n = 0; n < prof.size(); ++n) {
+    Profile& p = prof[n];
+    p.init(-innerW_, kOuterW);
+    const double* d = data_.data() + n * stride_;
+    std::copy(d, d + bins_, p.sum.begin());
+    std::copy(d + bins_, d + 2 * bins_, p.count.begin());
+    p.sc = d[2 * bins_];
+    p.ss = d[2 * bins_ + 1];
+  }
+  Profile all;
+  all.init(-innerW_, kOuterW);
+  for (const auto& p : prof) all.add(p);
+  // A signal-free (squared, MRI) wall reads as the outside: its thickness is not in the
+  // profile, and holding it there only lends the outside term to the step (measured:
+  // +0.065 density at 10 voxels per d), so a known thickness serves the grey fit alone.
+  Edge global =
+      fitEdge(all, -2.0, 2.0, nullptr, o_.squared, o_.squared ? 0.0 : o_.wallThicknessMm / sx);
+  // A grey wall fitted at the floor may be thinner than the fit resolves: its blurred
+  // bump fixes r + T/2, and the floor then puts the step up to kMinWall / 2 voxels too far
+  // in (-0.66 voxel at 10 voxels per d on a 1.33-voxel wall). The wall held at half the
+  // floor is taken instead when it fits the profile better; held there the radius is off
+  // by at most kMinWall / 4 = 0.625 voxel (docs/ingest.md, "An unresolved wall"). A known
+  // thickness (--column-wall-mm) removes the question.
+  bool unresolved = false;
+  if (!o_.squared && !(o_.wallThicknessMm > 0.0) && global.wall <= kMinWall + 1e-6) {
+    const Edge thin = fitEdge(all, -2.0, 2.0, nullptr, false, 0.5 * kMinWall);
+    if (thin.sse < global.sse) {
+      global = thin;
+      unresolved = true;
     }
-    // The step must stand out of the noise: bed-side level against the wall level.
-    const double resid = std::sqrt(global.sse / std::max(1.0, global.weight));
-    const double amplitude =
-        o.squared ? std::abs(global.coef[0]) : std::abs(global.coef[0] - global.coef[2]);
-    if (!(global.weight > 0) || !(amplitude > 0.5 * resid) || global.sigma > 2.95) {
+  }
+  // The step must stand out of the noise: bed-side level against the wall level.
+  const double resid = std::sqrt(global.sse / std::max(1.0, global.weight));
+  const double amplitude =
+      o_.squared ? std::abs(global.coef[0]) : std::abs(global.coef[0] - global.coef[2]);
+  if (!(global.weight > 0) || !(amplitude > 0.5 * resid) || global.sigma > 2.95) {
+    ColumnFit r = rough;
+    r.note += "; no clear grey step at the wall, circle fit kept";
+    return r;
+  }
+  // Per slab: an edge per sector (R alone, shape held), a circle through them.
+  std::vector<double> zs, xs, ys, rs;
+  int sectorsUsed = 0;
+  for (std::int64_t s = 0; s < slabs; ++s) {
+    double maxCount = 0;
+    for (int q = 0; q < o_.sectors; ++q)
+      maxCount = std::max(maxCount, prof[static_cast<std::size_t>(s * o_.sectors + q)].samples());
+    const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
+    const double zMid = l_.originMm[0] + 0.5 * static_cast<double>(z0 + z1 - 1) * l_.spacingMm[0];
+    const double ax = (fit.axisXMm + fit.slopeX * (zMid - fit.zRefMm) - l_.originMm[2]) / sx;
+    const double ay = (fit.axisYMm + fit.slopeY * (zMid - fit.zRefMm) - l_.originMm[1]) / sy;
+    std::vector<std::array<double, 2>> pts;
+    std::vector<double> edgeR;
+    for (int q = 0; q < o_.sectors; ++q) {
+      const Profile& p = prof[static_cast<std::size_t>(s * o_.sectors + q)];
+      // Sectors cut by the field of view hold fewer samples: skip them.
+      if (!(p.samples() >= 0.7 * maxCount) || maxCount <= 0) continue;
+      const Edge e = fitEdge(p, -2.0, 2.0, &global, o_.squared);
+      if (e.r <= -1.99 || e.r >= 1.99) continue;
+      const double norm = std::hypot(p.sc, p.ss);
+      if (!(norm > 0)) continue;
+      pts.push_back({ax + (r0 + e.r) * p.sc / norm, ay + (r0 + e.r) * p.ss / norm});
+      edgeR.push_back(r0 + e.r);
+      ++sectorsUsed;
+    }
+    if (pts.size() < 3) continue;
+    const Circle c = pts.size() >= 6 ? fitCircle(pts) : Circle{};
+    zs.push_back(zMid);
+    if (c.ok && std::abs(c.r - r0) < 2.5) {
+      xs.push_back(l_.originMm[2] + c.cx * sx);
+      ys.push_back(l_.originMm[1] + c.cy * sy);
+      rs.push_back(c.r * sx);
+    } else {
+      double m = 0;
+      for (double r : edgeR) m += r / static_cast<double>(edgeR.size());
+      xs.push_back(l_.originMm[2] + ax * sx);
+      ys.push_back(l_.originMm[1] + ay * sy);
+      rs.push_back(m * sx);
+    }
+  }
+  if (rs.empty()) return rough;
+  {
+    double mean = 0;
+    for (double r : rs) mean += r / static_cast<double>(rs.size());
+    if (std::abs(mean - rough.radiusMm) > 1.5 * sx) {
       ColumnFit r = rough;
-      r.note += "; no clear grey step at the wall, circle fit kept";
+      r.note += "; grey-step fit disagreed with the circle fit by > 1.5 voxels, circle kept";
       return r;
     }
-    // Per slab: an edge per sector (R alone, shape held), a circle through them.
-    std::vector<double> zs, xs, ys, rs;
-    int sectorsUsed = 0;
-    for (std::int64_t s = 0; s < slabs; ++s) {
-      double maxCount = 0;
-      for (int q = 0; q < o.sectors; ++q)
-        maxCount = std::max(maxCount, prof[static_cast<std::size_t>(s * o.sectors + q)].samples());
-      const std::int64_t z0 = s * nz / slabs, z1 = (s + 1) * nz / slabs;
-      const double zMid = l.originMm[0] + 0.5 * static_cast<double>(z0 + z1 - 1) * l.spacingMm[0];
-      const double ax = (fit.axisXMm + fit.slopeX * (zMid - fit.zRefMm) - l.originMm[2]) / sx;
-      const double ay = (fit.axisYMm + fit.slopeY * (zMid - fit.zRefMm) - l.originMm[1]) / sy;
-      std::vector<std::array<double, 2>> pts;
-      std::vector<double> edgeR;
-      for (int q = 0; q < o.sectors; ++q) {
-        const Profile& p = prof[static_cast<std::size_t>(s * o.sectors + q)];
-        // Sectors cut by the field of view hold fewer samples: skip them.
-        if (!(p.samples() >= 0.7 * maxCount) || maxCount <= 0) continue;
-        const Edge e = fitEdge(p, -2.0, 2.0, &global, o.squared);
-        if (e.r <= -1.99 || e.r >= 1.99) continue;
-        const double norm = std::hypot(p.sc, p.ss);
-        if (!(norm > 0)) continue;
-        pts.push_back({ax + (r0 + e.r) * p.sc / norm, ay + (r0 + e.r) * p.ss / norm});
-        edgeR.push_back(r0 + e.r);
-        ++sectorsUsed;
-      }
-      if (pts.size() < 3) continue;
-      const Circle c = pts.size() >= 6 ? fitCircle(pts) : Circle{};
-      zs.push_back(zMid);
-      if (c.ok && std::abs(c.r - r0) < 2.5) {
-        xs.push_back(l.originMm[2] + c.cx * sx);
-        ys.push_back(l.originMm[1] + c.cy * sy);
-        rs.push_back(c.r * sx);
-      } else {
-        double m = 0;
-        for (double r : edgeR) m += r / static_cast<double>(edgeR.size());
-        xs.push_back(l.originMm[2] + ax * sx);
-        ys.push_back(l.originMm[1] + ay * sy);
-        rs.push_back(m * sx);
-      }
-    }
-    if (rs.empty()) return rough;
-    {
-      double mean = 0;
-      for (double r : rs) mean += r / static_cast<double>(rs.size());
-      if (std::abs(mean - rough.radiusMm) > 1.5 * sx) {
-        ColumnFit r = rough;
-        r.note += "; grey-step fit disagreed with the circle fit by > 1.5 voxels, circle kept";
-        return r;
-      }
-    }
-    const std::size_t m = rs.size();
-    double sw = 0, sz = 0, szz = 0, sxv = 0, syv = 0, szx = 0, szy = 0;
-    for (std::size_t k = 0; k < m; ++k) {
-      const double z = zs[k] - fit.zRefMm;
-      sw += 1;
-      sz += z;
-      szz += z * z;
-      sxv += xs[k];
-      syv += ys[k];
-      szx += z * xs[k];
-      szy += z * ys[k];
-    }
-    const double det = sw * szz - sz * sz;
-    fit.slopeX = fit.slopeY = 0;
-    if (m >= 2 && det > 1e-12) {
-      fit.slopeX = (sw * szx - sz * sxv) / det;
-      fit.slopeY = (sw * szy - sz * syv) / det;
-    }
-    fit.axisXMm = (sxv - fit.slopeX * sz) / sw;
-    fit.axisYMm = (syv - fit.slopeY * sz) / sw;
-    std::vector<double> sorted = rs;
-    std::sort(sorted.begin(), sorted.end());
-    double mean = 0;
-    for (double r : rs) mean += r / static_cast<double>(m);
-    fit.radiusMm = mean;
-    fit.radiusSpreadMm = sorted.back() - sorted.front();
-    double var = 0;
-    for (double r : rs) var += (r - mean) * (r - mean);
-    fit.radiusStdMm = m >= 2 ? std::sqrt(var / static_cast<double>(m - 1) / static_cast<double>(m))
-                             : 0.05 * sx;  // one slab: no scatter to read; a twentieth of a voxel
-    fit.slabs = static_cast<int>(m);
-    fit.sectors = sectorsUsed;
-    fit.blurMm = global.sigma * sx;
-    fit.wallThicknessMm = global.wall * sx;
-    fit.wallResolved = !unresolved;
-    // The squared fit's levels are in M^2 (the MRI wall carries no signal): not kept.
-    fit.wallLevel = o.squared ? 0.0 : global.coef[2];
-    fit.outsideLevel = o.squared ? 0.0 : global.coef[3];
-    fit.refined = true;
-    innerW = std::clamp(2.5 * global.sigma + 2.0, 3.0, 6.0);
   }
+  const std::size_t m = rs.size();
+  double sw = 0, sz = 0, szz = 0, sxv = 0, syv = 0, szx = 0, szy = 0;
+  for (std::size_t k = 0; k < m; ++k) {
+    const double z = zs[k] - fit.zRefMm;
+    sw += 1;
+    sz += z;
+    szz += z * z;
+    sxv += xs[k];
+    syv += ys[k];
+    szx += z * xs[k];
+    szy += z * ys[k];
+  }
+  const double det = sw * szz - sz * sz;
+  fit.slopeX = fit.slopeY = 0;
+  if (m >= 2 && det > 1e-12) {
+    fit.slopeX = (sw * szx - sz * sxv) / det;
+    fit.slopeY = (sw * szy - sz * syv) / det;
+  }
+  fit.axisXMm = (sxv - fit.slopeX * sz) / sw;
+  fit.axisYMm = (syv - fit.slopeY * sz) / sw;
+  std::vector<double> sorted = rs;
+  std::sort(sorted.begin(), sorted.end());
+  double mean = 0;
+  for (double r : rs) mean += r / static_cast<double>(m);
+  fit.radiusMm = mean;
+  fit.radiusSpreadMm = sorted.back() - sorted.front();
+  double var = 0;
+  for (double r : rs) var += (r - mean) * (r - mean);
+  fit.radiusStdMm = m >= 2 ? std::sqrt(var / static_cast<double>(m - 1) / static_cast<double>(m))
+                           : 0.05 * sx;  // one slab: no scatter to read; a twentieth of a voxel
+  fit.slabs = static_cast<int>(m);
+  fit.sectors = sectorsUsed;
+  fit.blurMm = global.sigma * sx;
+  fit.wallThicknessMm = global.wall * sx;
+  fit.wallResolved = !unresolved;
+  // The squared fit's levels are in M^2 (the MRI wall carries no signal): not kept.
+  fit.wallLevel = o_.squared ? 0.0 : global.coef[2];
+  fit.outsideLevel = o_.squared ? 0.0 : global.coef[3];
+  fit.refined = true;
+  innerW = std::clamp(2.5 * global.sigma + 2.0, 3.0, 6.0);
   const double rv = fit.radiusMm / sx;
-  const double cx = (fit.axisXMm - l.originMm[2]) / sx, cy = (fit.axisYMm - l.originMm[1]) / sy;
+  const double cx = (fit.axisXMm - l_.originMm[2]) / sx, cy = (fit.axisYMm - l_.originMm[1]) / sy;
   fit.touchesBorder = cx - rv < -0.5 || cy - rv < -0.5 || cx + rv > static_cast<double>(nx) - 0.5 ||
                       cy + rv > static_cast<double>(ny) - 0.5;
   fit.note = "wall step fitted over " + std::to_string(fit.slabs) + " slab(s), " +
@@ -409,6 +430,34 @@ ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
                     "voxel; pass --column-wall-mm"
                   : "") +
              (fit.touchesBorder ? ", column cut by the field of view" : "");
+  done = false;
+  return fit;
+}
+
+void checkRefineOptions(const ColumnRefineOptions& o) {
+  if (o.slabSlices < 4 || o.sectors < 6 || o.iterations < 1)
+    throw InputError("column refinement: slab >= 4 slices, >= 6 sectors, >= 1 iteration");
+}
+
+}  // namespace column_detail
+
+ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
+                       const ColumnRefineOptions& o) {
+  column_detail::checkRefineOptions(o);
+  if (!rough.found) return rough;
+  const Lattice& l = image.lattice();
+  if (std::abs(l.spacingMm[2] - l.spacingMm[1]) > 1e-6 * l.spacingMm[2])
+    return rough;  // in-plane pixels must be square
+  ColumnFit fit = rough;
+  double innerW = 4.0;
+  for (int iter = 0; iter < o.iterations; ++iter) {
+    if (!column_detail::WallProfiles::usable(l, fit, innerW)) return rough;
+    column_detail::WallProfiles prof(l, fit, innerW, o);
+    for (std::int64_t k = 0; k < l.nz(); ++k) prof.addPlane(image.data() + l.offset(k, 0, 0), k);
+    bool done = false;
+    fit = prof.fit(rough, innerW, done);
+    if (done) return fit;
+  }
   return fit;
 }
 
