@@ -200,9 +200,11 @@ DIAG = STD + [
     ("after+wall_prior", lambda t: ["--column-wall-mm", f"{4 * BEDS[t.name]['voxel']:g}"]),
     ("after+no_cleanup", ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
     ("before+no_cleanup", BEFORE + ["--max-speck-voxels", "0", "--max-hole-voxels", "0"]),
-    # The streamed path (forced by --slab-voxels; it needs an explicit column): the volume
-    # threshold from a sample slab and whole-bed sums (docs/scale.md), and Otsu.
+    # The streamed path (forced by --slab-voxels): the volume threshold from a sample slab
+    # and whole-bed sums (docs/scale.md), with the true column, with the column fitted on
+    # the stream (the default), and Otsu.
     ("streamed", lambda t: t.column_flag() + ["--slab-voxels", "16"]),
+    ("streamed+auto_column", ["--slab-voxels", "16"]),
     ("streamed+otsu", lambda t: ["--threshold", "otsu"] + t.column_flag() +
      ["--slab-voxels", "16"]),
 ]

@@ -1,9 +1,12 @@
 #pragma once
-// The phase levels as the volume threshold reads them (not public): shared by the in-memory
-// pipeline and the streamed path's sample slab.
+// Pieces of the in-memory pipeline (pipeline.cpp) the streamed path shares (not public):
+// the phase levels as the volume threshold reads them, and the column's provenance.
 #include <cstdint>
+#include <nlohmann/json.hpp>
 
 #include "voxpack/core/grid.hpp"
+#include "voxpack/ingest/column.hpp"
+#include "voxpack/ingest/ingest.hpp"
 #include "voxpack/ingest/phases.hpp"
 
 namespace voxpack::ingest {
@@ -21,5 +24,8 @@ struct PhaseReading {
 PhaseReading readPhaseLevels(const Grid<float>& raw, const Grid<std::uint8_t>& prelim,
                              const Grid<std::uint8_t>* region, double blurVoxels, bool voidBright,
                              NoiseModel model, bool tail, int threads);
+
+/// The provenance's "column" record of a fitted, given or absent column.
+nlohmann::json columnJson(const ColumnFit& column, ColumnMode mode);
 
 }  // namespace voxpack::ingest

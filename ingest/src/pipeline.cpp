@@ -58,6 +58,12 @@ nlohmann::json latticeJson(const Lattice& l) {
           {"origin_mm", {l.originMm[0], l.originMm[1], l.originMm[2]}}};
 }
 
+double seconds(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
 nlohmann::json columnJson(const ColumnFit& c, ColumnMode mode) {
   nlohmann::json j = {{"mode", name(mode)}, {"found", c.found}, {"note", c.note}};
   if (c.found) {
@@ -81,12 +87,6 @@ nlohmann::json columnJson(const ColumnFit& c, ColumnMode mode) {
   }
   return j;
 }
-
-double seconds(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 bool resolveVoidBright(VoidPolarity polarity, const std::map<std::string, std::string>& metadata,
                        std::string* source) {

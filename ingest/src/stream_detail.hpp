@@ -62,24 +62,51 @@ double quantileThreshold(const std::vector<std::pair<float, std::uint64_t>>& sor
 double quantileThresholdFromBins(const std::vector<double>& bins, float lo, float hi, double phi,
                                  bool voidBright);
 
-/// Distance from the column wall of every pixel of a plane, in whole voxels: ring r
+/// Distance from the column wall of every pixel of plane k, in whole voxels: ring r
 /// (0..kRings) for R - r_pixel in [r, r + 1) voxels (kRings: deeper), kOutside outside the
-/// column. Without a column every pixel is kRings. An explicit column has no tilt, so one
-/// plane's map serves all.
+/// column. Without a column every pixel is kRings.
 constexpr int kRings = 24;
 constexpr int kOutside = kRings + 1;
-std::vector<std::uint8_t> wallRings(const Lattice& lattice, const ColumnFit* column);
+std::vector<std::uint8_t> wallRings(const Lattice& lattice, const ColumnFit* column,
+                                    std::int64_t k = 0);
 
-/// Raw grey sums per plane and wall ring (pass 1 of the volume threshold).
+/// wallRings plane by plane: one map for an upright axis (a given column, or a fit without
+/// tilt), else each plane's own (the last one kept).
+class PlaneRings {
+ public:
+  /// Maps of the planes of `lattice` (the whole volume's) about `column` (null: none).
+  PlaneRings(const Lattice& lattice, const ColumnFit* column);
+  /// The map of plane k (global index).
+  const std::vector<std::uint8_t>& operator()(std::int64_t k);
+  std::size_t plane() const { return map_.size(); }  ///< pixels per plane
+
+ private:
+  Lattice l_;
+  std::optional<ColumnFit> column_;
+  bool upright_ = true;
+  std::int64_t at_ = -1;
+  std::vector<std::uint8_t> map_;
+};
+
+/// Raw grey sums and voxel counts per plane and wall ring (pass 1 of the volume threshold).
 struct RingSums {
-  std::vector<std::uint8_t> ring;  ///< wallRings of a plane
-  std::vector<double> perRing;     ///< pixels of a plane per ring (kOutside + 1 entries)
-  std::vector<double> sum;         ///< [plane * (kOutside + 1) + ring]
-  /// Zero sums for `nz` planes over the ring map `rings`.
-  void reset(std::vector<std::uint8_t> rings, std::int64_t nz);
+  std::optional<PlaneRings> rings;  ///< the wall rings of each plane
+  std::vector<double> sum;          ///< [plane * (kOutside + 1) + ring]
+  std::vector<double> count;        ///< voxels added, same layout
+  /// Zero sums for the planes of `lattice` about `column` (null: none).
+  void reset(const Lattice& lattice, const ColumnFit* column);
   /// Adds planes [from, to) of `raw` (local indices), which start at global plane z.
   void add(const Grid<float>& raw, std::int64_t from, std::int64_t to, std::int64_t z);
+  /// Sums over the ranks (each plane added on one rank: exact).
+  void reduce(const Communicator* comm);
 };
+
+/// The column fitted on a streamed image (fitColumn, then refineColumn when
+/// o.refineColumn; docs/scale.md): one pass for the circles on the cut at tOtsu, one per
+/// refinement iteration. `passes` is advanced by the passes made.
+ColumnFit streamedColumnFit(const VolumeHeader& h, const IngestOptions& o, double tOtsu,
+                            bool voidBright, bool squared, std::int64_t slabPlanes, int threads,
+                            Progress& progress, const Communicator* comm, int& passes);
 
 /// The wall-blur correction of the streamed volume threshold (correctWallBlur per slab).
 struct WallFix {

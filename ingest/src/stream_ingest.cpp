@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "heap.hpp"
+#include "phase_reading.hpp"
 #include "stream_detail.hpp"
 #include "voxpack/core/bed_file.hpp"
 #include "voxpack/core/errors.hpp"
@@ -162,8 +163,6 @@ std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader
   if (o.resampleMm > 0.0) why.push_back("--resample");
   if (o.deconvolveIterations > 0) why.push_back("--deconvolve (an FFT of the whole image)");
   if (o.calibrationRuns > 0) why.push_back("--calibrate");
-  if (o.column == ColumnMode::Auto)
-    why.push_back("the automatic column fit (--column auto; give --column CX,CY,R or none)");
   std::string s;
   for (const auto& w : why) s += (s.empty() ? "" : "; ") + w;
   return s;
@@ -194,7 +193,9 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
   // A median or none selects input values, so an 8/16-bit file has at most 2^8/2^16.
   const bool volume =
       o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
-  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume) {
+  // Pass 1's counts (the column fit cuts at Otsu's threshold too).
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume ||
+      o.column == ColumnMode::Auto) {
     const std::string& c = h.info.componentType;  // ITK's name of the stored type
     const std::size_t distinct = c == "unsigned_char" || c == "char"     ? 256
                                  : c == "unsigned_short" || c == "short" ? 65536
@@ -208,12 +209,21 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
                2 * static_cast<std::uint64_t>(nz) * (kOutside + 1) * 8 + 2 * plane;
   }
   bytes += kIngestProcessBaseBytes;
+  std::uint64_t columnFit = 0;
+  if (o.column == ColumnMode::Auto) {
+    // The column fit, beside a slab (not the sample, which comes after it): a solid count
+    // per pixel (4 B), and the wall profiles (per slab and sector 2 x 140 bins of 8 B),
+    // held three times while fitted.
+    const std::int64_t cs = std::max<std::int64_t>(1, nz / std::max(4, o.columnFit.slabSlices));
+    columnFit = 4 * plane + 3 * static_cast<std::uint64_t>(cs) * 16 * 282 * 8;
+    bytes += columnFit;
+  }
   if (volume) {
     // The sample slab is analysed as the in-memory pipeline would a volume of its planes,
     // beside pass 1's sums and counts (counted above, outside the slabs' share).
     const std::int64_t sp = volumeSamplePlanes(l);
     const Lattice sample = subLattice(l, {{0, 0, 0}, {sp, l.ny(), l.nx()}});
-    const std::uint64_t samplePhase = bytes - slabs - kIngestProcessBaseBytes +
+    const std::uint64_t samplePhase = bytes - slabs - kIngestProcessBaseBytes - columnFit +
                                       estimateIngestPeakBytes(sample, o, std::nullopt, threads);
     // After it, its per-thread slice buffers (the dip test's memos, 47 B per plane voxel,
     // deep_level.cpp, and others) stay resident in the OpenMP workers' heaps, which
@@ -299,13 +309,15 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       o.threshold == ThresholdMethod::Auto || o.threshold == ThresholdMethod::Volume;
   IngestOptions oc = o;  // the options of the image the threshold cuts (the volume's may differ)
   StreamedVolume vol;
-  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume) {
+  // The column fit cuts at Otsu's threshold, as in memory. Its ring sums wait for the fit.
+  const bool autoColumn = o.column == ColumnMode::Auto;
+  if (o.threshold == ThresholdMethod::Otsu || o.threshold == ThresholdMethod::KMeans || volume ||
+      autoColumn) {
     ++passes;
     ValueCounts vc;
     RingSums rs;
-    if (volume) {
-      rs.reset(wallRings(lat, column.found ? &column : nullptr), nz);
-    }
+    const bool ringsNow = volume && !autoColumn;
+    if (ringsNow) rs.reset(lat, column.found ? &column : nullptr);
     const std::int64_t own = (slabs - me + P - 1) / P;  // slabs me, me + P, ...
     SlabProgress sp(progress, "threshold histogram (pass 1)", own, "ingest");
     for (std::int64_t s = 0; s < slabs; ++s) {
@@ -313,13 +325,13 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       sp.step(s / P);
       const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
       {
-        const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads, volume ? &rs : nullptr);
+        const Grid<float> img = denoisedPlanes(h, o, z0, z1, threads, ringsNow ? &rs : nullptr);
         for (float v : img.values()) vc.add(v);
       }
       releaseFreedHeap();
     }
     vc.reduce(comm);
-    if (P > 1 && volume) comm->sum(rs.sum);  // each plane summed on one rank: exact
+    if (ringsNow) rs.reduce(comm);
     const float lo = vc.lo, hi = vc.hi;
     bool overflow = vc.overflow;
     sp.step(own);
@@ -355,7 +367,35 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
       if (P > 1) comm->sum(bins);  // integer-valued counts: exact in any order
     }
     tOtsu = otsuFromBins(bins, lo, hi, lat.size());
-    t = o.threshold == ThresholdMethod::KMeans ? kmeansFromCounts(sorted, lo, hi) : tOtsu;
+    if (o.threshold == ThresholdMethod::KMeans) t = kmeansFromCounts(sorted, lo, hi);
+    if (o.threshold == ThresholdMethod::Otsu || volume) t = tOtsu;
+    if (autoColumn) {
+      const auto tc = std::chrono::steady_clock::now();
+      // The wall step on M^2 of the raw image for a signal-free (MRI) wall, as in memory.
+      const bool rician =
+          o.noise == NoiseChoice::Rician || (o.noise == NoiseChoice::Auto && voidBright);
+      column = streamedColumnFit(h, o, tOtsu, voidBright, rician && o.refineColumn, T, threads,
+                                 progress, comm, passes);
+      if (!column.found)
+        progress.message("warning: no column found (" + column.note +
+                         "); no mask written, the whole box is counted. If the image shows a "
+                         "column, give it: --column CX,CY,R (mm)");
+      timing["column_s"] = seconds(tc);
+      if (volume) {  // the raw sums per plane and wall ring, about the fitted column
+        ++passes;
+        rs.reset(lat, column.found ? &column : nullptr);
+        SlabProgress rp(progress, "wall-ring sums (pass " + std::to_string(passes) + ")", own,
+                        "ingest");
+        for (std::int64_t s = 0; s < slabs; ++s) {
+          if (!mine(s)) continue;
+          rp.step(s / P);
+          const std::int64_t z0 = s * T, z1 = std::min(nz, z0 + T);
+          rs.add(readVolumeSlab(h, z0, z1), 0, z1 - z0, z0);
+          releaseFreedHeap();
+        }
+        rs.reduce(comm);
+      }
+    }
     if (volume) {
       // Otsu's class means (bin centres): the per-plane unmixing that finds the bed's slices.
       double n0 = 0, s0 = 0, n1 = 0, s1 = 0;
@@ -388,8 +428,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   std::uint64_t coreIn = 0, coreVoid = 0, allVoid = 0, volIn = 0, volVoid = 0;
   ChordSums chordsCore, chordsAll;
   // The volume threshold's region: the bed's slices at its wall ring and deeper.
-  const std::vector<std::uint8_t> rings =
-      vol.used ? wallRings(lat, column.found ? &column : nullptr) : std::vector<std::uint8_t>{};
+  PlaneRings rings(lat, vol.used && column.found ? &column : nullptr);
   std::size_t specks = 0, holes = 0;
   // Rank 0 takes every slab in order (its own or received), the others their own.
   SlabProgress wp(progress, "segment and write (pass " + std::to_string(passes) + ")",
@@ -434,12 +473,14 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     }
     accumulateSummary(summary, ind, mask ? &*mask : nullptr);
     if (vol.used)
-      for (std::int64_t k = std::max(z0, vol.first); k < std::min(z1, vol.last + 1); ++k)
-        for (std::size_t p = 0; p < rings.size(); ++p)
-          if (rings[p] >= vol.ring && rings[p] <= kRings) {
+      for (std::int64_t k = std::max(z0, vol.first); k < std::min(z1, vol.last + 1); ++k) {
+        const std::vector<std::uint8_t>& r = rings(k);
+        for (std::size_t p = 0; p < r.size(); ++p)
+          if (r[p] >= vol.ring && r[p] <= kRings) {
             ++volIn;
-            volVoid += ind[static_cast<std::size_t>(k - z0) * rings.size() + p];
+            volVoid += ind[static_cast<std::size_t>(k - z0) * r.size() + p];
           }
+      }
     for (std::size_t n = 0; n < ind.size(); ++n) {
       allVoid += ind[n];
       if (core) {
@@ -505,7 +546,9 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
                     {"refine_column", o.refineColumn},
                     {"max_speck_voxels", o.maxSpeckVoxels},
                     {"max_hole_voxels", o.maxHoleVoxels},
-                    {"column", o.column == ColumnMode::None ? "none" : "explicit"},
+                    {"column", o.column == ColumnMode::None   ? "none"
+                               : o.column == ColumnMode::Auto ? "auto"
+                                                              : "explicit"},
                     {"labels", o.labels}};
   rep["threshold"] = {{"method", method},
                       {"requested", thresholdName(o.threshold)},
@@ -532,23 +575,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     if (vol.used) rep["threshold"]["porosity_aimed"] = vol.aimed;
   }
   rep["cleanup"] = {{"specks_removed", specks}, {"holes_filled", holes}};
-  nlohmann::json col = {{"mode", o.column == ColumnMode::None ? "none" : "explicit"},
-                        {"found", column.found},
-                        {"note", column.note}};
-  if (column.found) {
-    col["axis_x_mm"] = column.axisXMm;
-    col["axis_y_mm"] = column.axisYMm;
-    col["axis_z_ref_mm"] = column.zRefMm;
-    col["slope_x"] = 0.0;
-    col["slope_y"] = 0.0;
-    col["radius_mm"] = column.radiusMm;
-    col["slabs"] = 0;
-    col["radius_spread_mm"] = 0.0;
-    col["radius_std_mm"] = 0.0;
-    col["touches_border"] = false;
-    col["refined"] = false;
-  }
-  rep["column"] = col;
+  rep["column"] = columnJson(column, o.column);
   rep["output_lattice"] = latticeJson(lat);
   rep["porosity"] = summary.emptyMask ? nlohmann::json(nullptr) : finiteOrNull(summary.porosity);
   timing["total_s"] = seconds(tStart);

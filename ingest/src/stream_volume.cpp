@@ -112,11 +112,11 @@ double quantileThresholdFromBins(const std::vector<double>& bins, float lo, floa
   return hi;
 }
 
-std::vector<std::uint8_t> wallRings(const Lattice& l, const ColumnFit* column) {
+std::vector<std::uint8_t> wallRings(const Lattice& l, const ColumnFit* column, std::int64_t k) {
   std::vector<std::uint8_t> ring(static_cast<std::size_t>(l.ny() * l.nx()), kRings);
   if (!column || !column->found) return ring;
   const double voxel = l.spacingMm[2];
-  column_detail::forEachInPlane(l, *column, 0, [&](std::int64_t j, std::int64_t i, double d2) {
+  column_detail::forEachInPlane(l, *column, k, [&](std::int64_t j, std::int64_t i, double d2) {
     const double depth = (column->radiusMm - std::sqrt(d2)) / voxel;
     ring[static_cast<std::size_t>(j * l.nx() + i)] =
         depth <= 0.0 ? kOutside
@@ -125,20 +125,47 @@ std::vector<std::uint8_t> wallRings(const Lattice& l, const ColumnFit* column) {
   return ring;
 }
 
-void RingSums::reset(std::vector<std::uint8_t> rings, std::int64_t nz) {
-  ring = std::move(rings);
-  perRing.assign(kOutside + 1, 0.0);
-  for (std::uint8_t r : ring) perRing[r] += 1.0;
-  sum.assign(static_cast<std::size_t>(nz) * (kOutside + 1), 0.0);
+PlaneRings::PlaneRings(const Lattice& l, const ColumnFit* column) : l_(l) {
+  if (column && column->found) {
+    column_ = *column;
+    upright_ = column->slopeX == 0.0 && column->slopeY == 0.0;
+  }
+  map_ = wallRings(l_, column_ ? &*column_ : nullptr, 0);
+  at_ = 0;
+}
+
+const std::vector<std::uint8_t>& PlaneRings::operator()(std::int64_t k) {
+  if (!upright_ && k != at_) {
+    map_ = wallRings(l_, &*column_, k);
+    at_ = k;
+  }
+  return map_;
+}
+
+void RingSums::reset(const Lattice& lattice, const ColumnFit* column) {
+  rings.emplace(lattice, column);
+  sum.assign(static_cast<std::size_t>(lattice.nz()) * (kOutside + 1), 0.0);
+  count = sum;
 }
 
 void RingSums::add(const Grid<float>& raw, std::int64_t from, std::int64_t to, std::int64_t z) {
-  const std::size_t plane = ring.size(), stride = kOutside + 1;
+  const std::size_t plane = rings->plane(), stride = kOutside + 1;
   for (std::int64_t k = from; k < to; ++k) {
+    const std::vector<std::uint8_t>& ring = (*rings)(z + k - from);
     double* s = sum.data() + static_cast<std::size_t>(z + k - from) * stride;
+    double* c = count.data() + static_cast<std::size_t>(z + k - from) * stride;
     const float* v = raw.data() + static_cast<std::size_t>(k) * plane;
-    for (std::size_t p = 0; p < plane; ++p) s[ring[p]] += v[p];
+    for (std::size_t p = 0; p < plane; ++p) {
+      s[ring[p]] += v[p];
+      c[ring[p]] += 1.0;
+    }
   }
+}
+
+void RingSums::reduce(const Communicator* comm) {
+  if (!comm || comm->size() <= 1) return;
+  comm->sum(sum);
+  comm->sum(count);
 }
 
 std::int64_t volumeSamplePlanes(const Lattice& l) {
@@ -148,16 +175,18 @@ std::int64_t volumeSamplePlanes(const Lattice& l) {
 
 namespace {
 
-// Mask of the pixels at wall rings ring..kRings over `lat` (no column: nullopt, the whole
-// image, whose pixels are all at kRings).
-std::optional<Grid<std::uint8_t>> ringRegion(const Lattice& lat,
-                                             const std::vector<std::uint8_t>& rings, int ring,
-                                             bool column) {
+// Mask of the pixels at wall rings ring..kRings over `lat`, whose plane 0 is the volume's
+// plane z0 (no column: nullopt, the whole image, whose pixels are all at kRings).
+std::optional<Grid<std::uint8_t>> ringRegion(const Lattice& lat, std::int64_t z0, PlaneRings& rings,
+                                             int ring, bool column) {
   if (!column) return std::nullopt;
   Grid<std::uint8_t> m(lat, 0);
-  const std::size_t plane = rings.size();
-  for (std::size_t n = 0; n < m.size(); ++n)
-    m[n] = rings[n % plane] >= ring && rings[n % plane] <= kRings;
+  const std::size_t plane = rings.plane();
+  for (std::int64_t k = 0; k < lat.nz(); ++k) {
+    const std::vector<std::uint8_t>& r = rings(z0 + k);
+    for (std::size_t p = 0; p < plane; ++p)
+      m[static_cast<std::size_t>(k) * plane + p] = r[p] >= ring && r[p] <= kRings;
+  }
   return m;
 }
 
@@ -166,9 +195,11 @@ double sumRange(const RingSums& s, std::int64_t k0, std::int64_t k1, int ring, d
   const std::size_t stride = kOutside + 1;
   double total = 0, n = 0;
   for (std::int64_t k = k0; k <= k1; ++k)
-    for (int r = ring; r <= kRings; ++r) total += s.sum[static_cast<std::size_t>(k) * stride + r];
-  for (int r = ring; r <= kRings; ++r) n += s.perRing[static_cast<std::size_t>(r)];
-  *count = n * static_cast<double>(k1 - k0 + 1);
+    for (int r = ring; r <= kRings; ++r) {
+      total += s.sum[static_cast<std::size_t>(k) * stride + r];
+      n += s.count[static_cast<std::size_t>(k) * stride + r];
+    }
+  *count = n;
   return total;
 }
 
@@ -234,7 +265,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   }
   const std::int64_t S = s1 - s0;
   const Lattice sl = subLattice(lat, {{s0, 0, 0}, {S, lat.ny(), lat.nx()}});
-  const std::vector<std::uint8_t>& rings = sums.ring;
+  PlaneRings rings(lat, hasColumn ? column : nullptr);
   progress.report("ingest: volume threshold, sample slab", 0.0);
   // The bed's end slices are left out (a floor or lid's blur reaches 3 sigma in).
   auto trimBed = [&](double blur) {
@@ -264,7 +295,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   double interiorSigma = 0, blurVox = 0, vpd = 0, surfacePrelim = 0, edgeBias = 0, otsuPhi = 0;
   double samplePhi = std::numeric_limits<double>::quiet_NaN();  // mean-intensity phi, its bed
   int ring = 0;
-  bool refined = false;
+  bool refined = false, fromFit = false;
   ColumnFit seen;
   DeepLevel deep[2];
   {
@@ -279,15 +310,20 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
       raw = cropPlanes(raw, s0 - ra, s1 - ra);
       den = cropPlanes(den, s0 - ra, s1 - ra);
     }
-    // The wall's blur, from the wall step of the sample (on M^2 for an MRI wall).
-    if (hasColumn && o.refineColumn) {
+    // The wall's blur: from the column's own fit when it was fitted on the whole stream (as
+    // in memory), else from the wall step of the sample (on M^2 for an MRI wall).
+    if (hasColumn && column->refined && column->blurMm > 0.0) {
+      seen = *column;
+      refined = fromFit = true;
+      blurVox = seen.blurMm / voxel;
+    } else if (hasColumn && o.refineColumn) {
       const bool squared = model == NoiseModel::Rician;
       const ColumnRefineOptions ro{.slabSlices = o.columnFit.slabSlices,
                                    .squared = squared,
                                    .wallThicknessMm = o.columnWallMm};
-      ColumnFit c = *column;
-      c.zRefMm = sl.originMm[0];
-      seen = refineColumn(squared ? raw : den, c, ro);
+      // The sample's planes keep their heights (subLattice moves the origin), so a leaning
+      // axis is read at the right place about its own zRefMm.
+      seen = refineColumn(squared ? raw : den, *column, ro);
       refined = seen.refined && seen.blurMm > 0.0;
       if (refined) blurVox = seen.blurMm / voxel;
     }
@@ -297,7 +333,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
     double coreCount = 0;
     sumRange(sums, 0, 0, ring, &coreCount);
     if (hasColumn && coreCount * static_cast<double>(nz) < 64) ring = 0;  // the whole column
-    const auto region = ringRegion(sl, rings, ring, hasColumn && ring > 0);
+    const auto region = ringRegion(sl, s0, rings, ring, hasColumn && ring > 0);
     const Grid<std::uint8_t>* reg = region ? &*region : nullptr;
 
     Grid<std::uint8_t> prelim = applyThreshold(den, tOtsu, voidBright);
@@ -354,8 +390,9 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
       {"noise_sigma", noise},
       {"snr", noise > 0 ? std::abs(levels.voidSignal - levels.solidSignal) / noise : 0.0},
       {"blur_mm", refined ? nlohmann::json(seen.blurMm) : nlohmann::json(nullptr)},
-      {"blur_from", refined ? "edge-spread fit at the column wall (sample slab)"
-                            : "not measured (no wall seen)"},
+      {"blur_from", !refined  ? "not measured (no wall seen)"
+                    : fromFit ? "edge-spread fit at the column wall (whole column, streamed)"
+                              : "edge-spread fit at the column wall (sample slab)"},
       {"from", "sample slab"}};
   out.sampleJson = {{"first", s0},
                     {"last", s1 - 1},
@@ -390,7 +427,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   const int P = comm ? comm->size() : 1, me = comm ? comm->rank() : 0;
   const std::int64_t T = std::clamp<std::int64_t>(slabPlanes, 1, nz);
   const std::int64_t first = k0 / T, last = k1 / T;
-  const std::size_t plane = rings.size();
+  const std::size_t plane = rings.plane();
   // The wall's blur divided out of the grey values next to it (as in memory, docs/
   // ingest.md "Wall-blur correction"): the porosity is then aimed over the whole column.
   if (hasColumn && refined && o.wallBlurCorrection) {
@@ -405,7 +442,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
     out.fix = fix;
     ring = 0;
     out.ring = 0;
-    const auto whole = ringRegion(sl, rings, 0, true);
+    const auto whole = ringRegion(sl, s0, rings, 0, true);
     bedRegion = sampleBedRegion(&*whole);
     out.thresholdJson["region_ring_voxels"] = 0;
     out.thresholdJson["wall_blur_correction"] = {
@@ -423,9 +460,17 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   const WallFix* fix = out.fix ? &*out.fix : nullptr;
   RingSums corrected;  // the raw sums again, of the corrected image
   if (fix) {
-    corrected.reset(rings, nz);
+    corrected.reset(lat, column);
   }
-  auto inRegion = [&](std::size_t p) { return rings[p] >= ring && rings[p] <= kRings; };
+  // f(value) for the voxels of `img` (planes from global a) at wall ring `ring` or deeper.
+  auto eachInRegion = [&](const Grid<float>& img, std::int64_t a, auto&& f) {
+    for (std::int64_t k = 0; k < img.lattice().nz(); ++k) {
+      const std::vector<std::uint8_t>& r = rings(a + k);
+      const float* v = img.data() + static_cast<std::size_t>(k) * plane;
+      for (std::size_t p = 0; p < plane; ++p)
+        if (r[p] >= ring && r[p] <= kRings) f(v[p]);
+    }
+  };
   ValueCounts counts;
   {
     SlabProgress sp(progress, "volume threshold counts", (last - first + P) / P, "ingest");
@@ -436,8 +481,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
       {
         const Grid<float> img =
             denoisedPlanes(h, oc, a, b, threads, fix ? &corrected : nullptr, fix);
-        for (std::size_t n = 0; n < img.size(); ++n)
-          if (inRegion(n % plane)) counts.add(img[n]);
+        eachInRegion(img, a, [&](float v) { counts.add(v); });
       }
       releaseFreedHeap();  // the slabs' pages (stream_ingest.cpp, the write pass)
     }
@@ -445,7 +489,7 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
   counts.reduce(comm);
   out.passes = 1;
   if (fix) {  // the mean intensity over the whole column, corrected
-    if (comm && P > 1) comm->sum(corrected.sum);  // each plane from one rank: exact
+    corrected.reduce(comm);
     double n = 0;
     meanI = sumRange(corrected, k0, k1, 0, &n) / std::max(1.0, n);
     phiRaw = (meanI - levels.solidLevel) / (levels.voidLevel - levels.solidLevel);
@@ -470,10 +514,10 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
       const std::int64_t a = std::max(k0, s * T), b = std::min(k1 + 1, (s + 1) * T);
       {
         const Grid<float> img = denoisedPlanes(h, oc, a, b, threads, nullptr, fix);
-        for (std::size_t n = 0; n < img.size(); ++n)
-          if (inRegion(n % plane))
-            bins[std::min<std::size_t>(static_cast<std::size_t>((img[n] - counts.lo) * scale),
-                                       bins.size() - 1)] += 1.0;
+        eachInRegion(img, a, [&](float v) {
+          bins[std::min<std::size_t>(static_cast<std::size_t>((v - counts.lo) * scale),
+                                     bins.size() - 1)] += 1.0;
+        });
       }
       releaseFreedHeap();
     }

@@ -139,11 +139,11 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
           << pixel << ", " << n;
     }
   }
-  // What has no streamed path (here --column auto, a fit over the whole image) is refused
-  // under mpirun with exit 2, and no bed appears.
+  // What has no streamed path (here watershed labels, a flood over the whole image) is
+  // refused under mpirun with exit 2, and no bed appears.
   const auto none = (tmp / "none.h5").string();
   EXPECT_EQ(runShell(mpirun(2) + " --quiet ingest " + shellQuote((tmp / "uint8.nhdr").string()) +
-                     " --column auto -o " + shellQuote(none) + " </dev/null 2>/dev/null"),
+                     " --labels -o " + shellQuote(none) + " </dev/null 2>/dev/null"),
             2);
   EXPECT_FALSE(std::filesystem::exists(none));
 }
@@ -151,8 +151,9 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
 // The volume threshold under mpirun (docs/scale.md, "The volume threshold, streamed"): every
 // rank analyses the same sample slab; the per-plane sums come each from one rank and the
 // counts (uint16: exact values; float32: fine bins) are integers, so 2 and 3 ranks cut at
-// the threshold of one process and write its bed. An MC bed of spheres d 2 mm under a
-// headspace, imaged as MRI at 10 voxels per d, SNR 10, blur 1 voxel.
+// the threshold of one process and write its bed. The column given, and fitted (each column
+// slab's circle and wall profiles from one rank, "The column, streamed"). An MC bed of
+// spheres d 2 mm under a headspace, imaged as MRI at 10 voxels per d, SNR 10, blur 1 voxel.
 TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
   TempDir tmp;
   const std::string vox = shellQuote(VOXPACK_BINARY);
@@ -168,22 +169,30 @@ TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
                            "--modality mri --snr 10 --blur-mm 0.2 --voxel-size 0.2 --seed 15 "
                            "--pixel-type " +
                                pixel));
-    const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
-                             " --void bright --column 0,0,5 --slab-voxels 4 -o ";
-    const auto serial = (tmp / (pixel + "_serial.h5")).string();
-    ASSERT_EQ(runShell(vox + args + shellQuote(serial)), 0) << pixel;
-    const Bed ref = readBed(serial);
-    EXPECT_EQ(ref.provenance["ingest"]["threshold"]["method"], "volume")
-        << pixel << ": " << ref.provenance["ingest"]["threshold"].dump();
-    for (int n : {2, 3}) {
-      const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();
-      ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0)
-          << pixel << ", " << n << " ranks";
-      const Bed b = readBed(out);
-      EXPECT_TRUE(b.indicator.values() == ref.indicator.values()) << pixel << ", " << n;
-      EXPECT_EQ(runlessProvenance(b.provenance), runlessProvenance(ref.provenance))
-          << pixel << ", " << n << ": "
-          << json::diff(runlessProvenance(ref.provenance), runlessProvenance(b.provenance)).dump();
+    for (const std::string column : {"0,0,5", "auto"}) {
+      const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
+                               " --void bright --column " + column + " --slab-voxels 4 -o ";
+      const auto serial = (tmp / (pixel + "_serial.h5")).string();
+      ASSERT_EQ(runShell(vox + args + shellQuote(serial)), 0) << pixel;
+      const Bed ref = readBed(serial);
+      EXPECT_EQ(ref.provenance["ingest"]["threshold"]["method"], "volume")
+          << pixel << ": " << ref.provenance["ingest"]["threshold"].dump();
+      if (column == "auto") {
+        EXPECT_EQ(ref.provenance["ingest"]["column"]["refined"], true) << pixel;
+        EXPECT_NEAR(ref.provenance["ingest"]["column"]["radius_mm"].get<double>(), 5.0, 0.02);
+      }
+      for (int n : {2, 3}) {
+        const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();
+        ASSERT_EQ(runShell(mpirun(n) + args + shellQuote(out) + " </dev/null"), 0)
+            << pixel << ", " << column << ", " << n << " ranks";
+        const Bed b = readBed(out);
+        EXPECT_TRUE(b.indicator.values() == ref.indicator.values())
+            << pixel << ", " << column << ", " << n;
+        EXPECT_EQ(runlessProvenance(b.provenance), runlessProvenance(ref.provenance))
+            << pixel << ", " << column << ", " << n << ": "
+            << json::diff(runlessProvenance(ref.provenance), runlessProvenance(b.provenance))
+                   .dump();
+      }
     }
   }
 }

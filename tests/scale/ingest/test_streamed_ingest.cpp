@@ -295,11 +295,13 @@ TEST(StreamedIngest, OverBudgetWithoutStreamedPathIsRefusedUpFront) {
     std::string says;
   };
   const std::vector<Case> cases = {
-      {{}, "column fit"},  // the default pipeline (its volume threshold streams)
+      // The default pipeline streams (column fit and volume threshold), but its sample slab
+      // of 16 planes of 2048^2 does not fit 1G.
+      {{}, "streamed in slabs of 1 planes"},
       {{"--threshold", "otsu", "--column", "none", "--labels"}, "watershed labels"},
       {{"--threshold", "otsu", "--column", "none", "--bias-correction", "n4"}, "N4"},
       {{"--threshold", "otsu", "--column", "none", "--denoise", "curvature"}, "curvature"},
-      {{"--threshold", "otsu", "--column", "auto"}, "column fit"},
+      {{"--threshold", "otsu", "--column", "auto", "--resample", "0.1"}, "--resample"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> args = {"--memory-limit", "1G", "ingest",
