@@ -28,7 +28,7 @@ double densityOverSlices(const Bed& bed, std::int64_t k0, std::int64_t k1) {
 }  // namespace
 
 nlohmann::json calibrateDensityBias(const IngestResult& res, const IngestOptions& o, int threads,
-                                    Progress& progress) {
+                                    Progress& progress, std::int64_t trimPlanes) {
   const int runs = o.calibrationRuns;
   if (runs < 1 || runs > 50) throw UsageError("--calibrate: the number of runs must be 1..50");
   const ImageQuality& q = res.quality;
@@ -43,7 +43,12 @@ nlohmann::json calibrateDensityBias(const IngestResult& res, const IngestOptions
   co.resampleMm = 0.0;  // the bed is already on the output lattice
   co.voidPolarity = res.voidBright ? VoidPolarity::Bright : VoidPolarity::Dark;
   std::int64_t k0 = 0, k1 = -1;
-  const double truth = packedRegionDensity(res.bed, &k0, &k1);
+  double truth = packedRegionDensity(res.bed, &k0, &k1);
+  if (trimPlanes > 0 && k1 - k0 + 1 > 2 * trimPlanes) {
+    k0 += trimPlanes;
+    k1 -= trimPlanes;
+    truth = densityOverSlices(res.bed, k0, k1);
+  }
   nlohmann::json biases = nlohmann::json::array();
   double sum = 0, sum2 = 0;
   int done = 0;

@@ -133,7 +133,8 @@ struct StreamedVolume {
   int ring = 0;                ///< region: wall rings ring..kRings (0: the whole column)
   std::optional<WallFix> fix;  ///< the wall-blur correction, when applied
   double aimed = 0;            ///< void fraction aimed at over the region
-  int passes = 0;              ///< passes over the volume it added
+  std::int64_t sampleFirst = 0, sampleLast = -1;  ///< the sample slab's planes
+  int passes = 0;                                 ///< passes over the volume it added
   nlohmann::json thresholdJson, qualityJson, sampleJson;
 };
 

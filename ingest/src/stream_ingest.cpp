@@ -162,7 +162,11 @@ std::string streamedIngestUnsupported(const IngestOptions& o, const VolumeHeader
         "gradient; use --denoise median or median-box)");
   if (o.resampleMm > 0.0) why.push_back("--resample");
   if (o.deconvolveIterations > 0) why.push_back("--deconvolve (an FFT of the whole image)");
-  if (o.calibrationRuns > 0) why.push_back("--calibrate");
+  if (o.calibrationRuns > 0 && o.threshold != ThresholdMethod::Auto &&
+      o.threshold != ThresholdMethod::Volume)
+    why.push_back(
+        "--calibrate with --threshold otsu, kmeans or a value (streamed, the image quality is "
+        "read by the volume threshold)");
   std::string s;
   for (const auto& w : why) s += (s.empty() ? "" : "; ") + w;
   return s;
@@ -430,6 +434,16 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
   // The volume threshold's region: the bed's slices at its wall ring and deeper.
   PlaneRings rings(lat, vol.used && column.found ? &column : nullptr);
   std::size_t specks = 0, holes = 0;
+  // --calibrate images the output bed over the volume threshold's sample slab (its planes
+  // are kept as they are written): the in-memory calibration on a bed of the sample's size.
+  const bool calibrate = o.calibrationRuns > 0 && volume && me == 0;
+  const std::int64_t c0 = vol.sampleFirst, c1 = vol.sampleLast + 1;
+  Bed crop;
+  if (calibrate) {
+    const Lattice cl = subLattice(lat, {{c0, 0, 0}, {c1 - c0, lat.ny(), lat.nx()}});
+    crop.indicator = Grid<std::uint8_t>(cl, 0);
+    if (column.found) crop.mask = Grid<std::uint8_t>(cl, 0);
+  }
   // Rank 0 takes every slab in order (its own or received), the others their own.
   SlabProgress wp(progress, "segment and write (pass " + std::to_string(passes) + ")",
                   me == 0 ? slabs : (slabs - me + P - 1) / P, "ingest");
@@ -496,6 +510,15 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
     }
     writer->writeIndicator(z0, ind);
     if (mask) writer->writeMask(z0, *mask);
+    if (calibrate) {
+      const std::size_t plane = static_cast<std::size_t>(lat.ny() * lat.nx());
+      for (std::int64_t k = std::max(z0, c0); k < std::min(z1, c1); ++k) {
+        const std::size_t from = static_cast<std::size_t>(k - z0) * plane,
+                          to = static_cast<std::size_t>(k - c0) * plane;
+        std::copy_n(ind.data() + from, plane, crop.indicator.data() + to);
+        if (mask) std::copy_n(mask->data() + from, plane, crop.mask->data() + to);
+      }
+    }
     // Each slab's buffers are freed; without handing their pages back, glibc's heap grows
     // by about a slab per few slabs (384^3 in slabs of 18 planes: 159 MB against 126 MB).
     releaseFreedHeap();
@@ -593,9 +616,41 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
        "slab exact; the threshold comes from the exact value histogram of pass 1, or (volume) "
        "from the levels of a sample slab, the mean intensity of the whole bed and the exact "
        "counts of its slices"}};
+  nlohmann::json calibration;
+  if (calibrate) {
+    const auto tc = std::chrono::steady_clock::now();
+    IngestResult sample;
+    sample.bed = std::move(crop);
+    sample.voidBright = voidBright;
+    sample.column = column;
+    const auto& q = rep["quality"];
+    auto number = [](const nlohmann::json& v) { return v.is_number() ? v.get<double>() : 0.0; };
+    sample.quality.noiseSigma = number(q["noise_sigma"]);
+    sample.quality.snr = number(q["snr"]);
+    sample.quality.blurMeasured = q["blur_mm"].is_number();
+    sample.quality.blurMm = number(q["blur_mm"]);
+    sample.quality.voxelMm = voxel;
+    sample.quality.voxelsPerDiameter = vpd;
+    // The sample's cut end inside the bed: the phantom's blur reads past it as if the bed
+    // stopped there, so 3 blur sigma (at least 2 planes) are left out at each end.
+    const auto trim = std::max<std::int64_t>(
+        2, static_cast<std::int64_t>(std::ceil(3.0 * sample.quality.blurMm / voxel)));
+    calibration = calibrateDensityBias(sample, o, threads, progress, trim);
+    calibration["region"] = {
+        {"first", c0},
+        {"last", c1 - 1},
+        {"trim_planes", trim},
+        {"note",
+         "streamed: the output bed over the volume threshold's sample slab, imaged and "
+         "segmented in memory"}};
+    rep["calibration"] = calibration;
+    timing["calibration_s"] = seconds(tc);
+    rep["timing_s"] = timing;
+  }
   sanitizeNonFinite(rep);
   nlohmann::json prov = {
       {"voxpack_version", versionString()}, {"command", "ingest"}, {"ingest", rep}};
+  if (calibrate) prov["calibration"] = rep["calibration"];
   if (extraProvenance.is_object())
     for (const auto& [k, v] : extraProvenance.items()) prov[k] = v;
   checkCancel(progress);

@@ -394,6 +394,8 @@ StreamedVolume streamedVolumeThreshold(const VolumeHeader& h, const IngestOption
                     : fromFit ? "edge-spread fit at the column wall (whole column, streamed)"
                               : "edge-spread fit at the column wall (sample slab)"},
       {"from", "sample slab"}};
+  out.sampleFirst = s0;
+  out.sampleLast = s1 - 1;
   out.sampleJson = {{"first", s0},
                     {"last", s1 - 1},
                     {"planes", S},

@@ -152,8 +152,9 @@ TEST(Mpi, IngestEqualsOneProcessForTwoAndThreeRanks) {
 // rank analyses the same sample slab; the per-plane sums come each from one rank and the
 // counts (uint16: exact values; float32: fine bins) are integers, so 2 and 3 ranks cut at
 // the threshold of one process and write its bed. The column given, and fitted (each column
-// slab's circle and wall profiles from one rank, "The column, streamed"). An MC bed of
-// spheres d 2 mm under a headspace, imaged as MRI at 10 voxels per d, SNR 10, blur 1 voxel.
+// slab's circle and wall profiles from one rank, "The column, streamed") with --calibrate.
+// An MC bed of spheres d 2 mm under a headspace, imaged as MRI at 10 voxels per d, SNR 10,
+// blur 1 voxel.
 TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
   TempDir tmp;
   const std::string vox = shellQuote(VOXPACK_BINARY);
@@ -169,7 +170,8 @@ TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
                            "--modality mri --snr 10 --blur-mm 0.2 --voxel-size 0.2 --seed 15 "
                            "--pixel-type " +
                                pixel));
-    for (const std::string column : {"0,0,5", "auto"}) {
+    // The fitted column with a calibration (rank 0 calibrates on the sample slab it kept).
+    for (const std::string column : {"0,0,5", "auto --calibrate 1"}) {
       const std::string args = " --quiet --threads 1 ingest " + shellQuote(grey) +
                                " --void bright --column " + column + " --slab-voxels 4 -o ";
       const auto serial = (tmp / (pixel + "_serial.h5")).string();
@@ -177,9 +179,10 @@ TEST(Mpi, VolumeThresholdIngestEqualsOneProcess) {
       const Bed ref = readBed(serial);
       EXPECT_EQ(ref.provenance["ingest"]["threshold"]["method"], "volume")
           << pixel << ": " << ref.provenance["ingest"]["threshold"].dump();
-      if (column == "auto") {
+      if (column != "0,0,5") {
         EXPECT_EQ(ref.provenance["ingest"]["column"]["refined"], true) << pixel;
         EXPECT_NEAR(ref.provenance["ingest"]["column"]["radius_mm"].get<double>(), 5.0, 0.02);
+        EXPECT_TRUE(ref.provenance["calibration"]["density_bias"].is_number()) << pixel;
       }
       for (int n : {2, 3}) {
         const auto out = (tmp / (pixel + "_np" + std::to_string(n) + ".h5")).string();

@@ -134,9 +134,12 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& options, int thre
 /// `makePhantom` at the measured SNR, blur and voxel size (its mask as the column, wall
 /// of the measured thickness), segmented with the same options, and compared with itself
 /// over its packed slices. Runs options.calibrationRuns phantoms; the result is the
-/// provenance object "calibration".
+/// provenance object "calibration". `trimPlanes` leaves that many planes out at each end of
+/// the packed slices (a bed cut from a taller one, whose cut ends the phantom's blur reads
+/// wrongly).
 nlohmann::json calibrateDensityBias(const IngestResult& result, const IngestOptions& options,
-                                    int threads, Progress& progress = nullProgress());
+                                    int threads, Progress& progress = nullProgress(),
+                                    std::int64_t trimPlanes = 0);
 
 /// Packing density of `bed` over its packed slices: slices whose solid share in the mask
 /// is at least half the largest slice's (the headspace above a bed is left out), fully
