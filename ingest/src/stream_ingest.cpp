@@ -234,6 +234,9 @@ std::uint64_t estimateStreamedIngestBytes(const VolumeHeader& h, const IngestOpt
     // malloc_trim does not hand back: measured 68-100 B per plane voxel in the slab passes
     // at 384^2 planes on 2 threads against 1 (docs/scale.md); counted at 128.
     bytes += static_cast<std::uint64_t>(std::max(0, threads - 1)) * 128 * plane;
+    // --calibrate: the output bed's sample planes (indicator and mask) kept through the
+    // write pass; the calibration itself runs after it, within the sample phase's figure.
+    if (o.calibrationRuns > 0) bytes += 2 * sample.size();
     bytes = std::max(bytes, samplePhase);
   }
   return bytes;
