@@ -14,7 +14,8 @@
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
 # voidage-cylinders: the paper's cylinders (d 5.4 x l 3.8 mm, volume-equivalent d_pe 5.498
 #          mm) at D/d_pe 3, 5, 8, 12 and 20, poured at each of FRICTIONS, e 0.5, 0.54 mm voxels
-#          (10 per d: VOIDCYL_VOXEL overrides), beds 20/16/12/10/8 d_pe deep; against
+#          (10 per d: VOIDCYL_VOXEL overrides), beds 20/16/12/10/8 d_pe deep (VOIDCYL_SPECS,
+#          "D/d_pe:COUNT ...", runs a subset, e.g. "8:700"); against
 #          eps = 0.373 + 1.703 / (D/d_pe + 0.611)^2, the voxel and the centre-count voidage.
 # Raw JSON per bed in OUT_DIR/NAME.json and all of them in OUT_DIR/dem_fidelity.json.
 set -euo pipefail
@@ -98,7 +99,7 @@ fi
 if [[ $which == voidage-cylinders || $which == all ]]; then
   # Beds 20/16/12/10/8 d_pe deep (V 87.03 mm^3).
   voidage_sweep voidcyl 5.498 87.03 "${VOIDCYL_VOXEL:-0.54}" cylinder:d=5.4,l=3.8 \
-    "3:170 5:360 8:700 12:1300 20:2900"
+    "${VOIDCYL_SPECS:-3:170 5:360 8:700 12:1300 20:2900}"
 fi
 /usr/bin/python3 - "$out" <<'PY'
 import glob, json, sys
