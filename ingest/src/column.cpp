@@ -113,6 +113,12 @@ std::vector<std::int32_t> components(const std::vector<std::uint8_t>& in, std::i
 
 namespace column_detail {
 
+void checkFitOptions(const ColumnFitOptions& o) {
+  if (o.slabSlices < 4) throw InputError("column fit: slab must hold >= 4 slices");
+  if (!(o.solidFraction > 0.5 && o.solidFraction <= 1.0))
+    throw InputError("column fit: solid fraction must be in (0.5, 1]");
+}
+
 std::int64_t columnSlabs(std::int64_t nz, int slabSlices) {
   return std::max<std::int64_t>(1, nz / slabSlices);
 }
@@ -260,9 +266,7 @@ ColumnFit combineSlabCircles(const std::vector<SlabCircle>& slabs, const Lattice
 }  // namespace column_detail
 
 ColumnFit fitColumn(const Grid<std::uint8_t>& ind, const ColumnFitOptions& o) {
-  if (o.slabSlices < 4) throw InputError("column fit: slab must hold >= 4 slices");
-  if (!(o.solidFraction > 0.5 && o.solidFraction <= 1.0))
-    throw InputError("column fit: solid fraction must be in (0.5, 1]");
+  column_detail::checkFitOptions(o);
   const Lattice& l = ind.lattice();
   const std::int64_t nz = l.nz();
   const std::int64_t slabs = column_detail::columnSlabs(nz, o.slabSlices);

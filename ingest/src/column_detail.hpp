@@ -1,5 +1,6 @@
 #pragma once
 // Geometry shared by the column mask and the wall-blur correction (not public).
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -42,6 +43,9 @@ SlabCircle fitSlabCircle(const std::vector<std::int32_t>& solidCount, const Latt
 /// fitColumn's axis (least squares through the slab centres) and median radius.
 ColumnFit combineSlabCircles(const std::vector<SlabCircle>& slabs, const Lattice& l);
 
+/// Throws InputError for fitColumn options out of range.
+void checkFitOptions(const ColumnFitOptions& options);
+
 /// Throws InputError for refineColumn options out of range.
 void checkRefineOptions(const ColumnRefineOptions& options);
 
@@ -72,5 +76,29 @@ class WallProfiles {
   std::size_t bins_ = 0, stride_ = 0;
   std::vector<double> data_;  // per (slab, sector): bins sums, bins counts, sum cos, sum sin
 };
+
+/// refineColumn's iterations about `rough` on the image lattice `l`: `fill(profiles)` adds
+/// every plane of the image to each iteration's WallProfiles (in memory, or slab by slab
+/// and summed over processes). `rough` comes back when the pixels are not square, the
+/// radius is too small or the step is not seen.
+template <class Fill>
+ColumnFit refineIterations(const Lattice& l, const ColumnFit& rough, const ColumnRefineOptions& o,
+                           Fill&& fill) {
+  checkRefineOptions(o);
+  if (!rough.found) return rough;
+  if (std::abs(l.spacingMm[2] - l.spacingMm[1]) > 1e-6 * l.spacingMm[2])
+    return rough;  // in-plane pixels must be square
+  ColumnFit fit = rough;
+  double innerW = 4.0;
+  for (int iter = 0; iter < o.iterations; ++iter) {
+    if (!WallProfiles::usable(l, fit, innerW)) return rough;
+    WallProfiles prof(l, fit, innerW, o);
+    fill(prof);
+    bool done = false;
+    fit = prof.fit(rough, innerW, done);
+    if (done) return fit;
+  }
+  return fit;
+}
 
 }  // namespace voxpack::ingest::column_detail

@@ -443,22 +443,10 @@ void checkRefineOptions(const ColumnRefineOptions& o) {
 
 ColumnFit refineColumn(const Grid<float>& image, const ColumnFit& rough,
                        const ColumnRefineOptions& o) {
-  column_detail::checkRefineOptions(o);
-  if (!rough.found) return rough;
   const Lattice& l = image.lattice();
-  if (std::abs(l.spacingMm[2] - l.spacingMm[1]) > 1e-6 * l.spacingMm[2])
-    return rough;  // in-plane pixels must be square
-  ColumnFit fit = rough;
-  double innerW = 4.0;
-  for (int iter = 0; iter < o.iterations; ++iter) {
-    if (!column_detail::WallProfiles::usable(l, fit, innerW)) return rough;
-    column_detail::WallProfiles prof(l, fit, innerW, o);
+  return column_detail::refineIterations(l, rough, o, [&](column_detail::WallProfiles& prof) {
     for (std::int64_t k = 0; k < l.nz(); ++k) prof.addPlane(image.data() + l.offset(k, 0, 0), k);
-    bool done = false;
-    fit = prof.fit(rough, innerW, done);
-    if (done) return fit;
-  }
-  return fit;
+  });
 }
 
 }  // namespace voxpack::ingest

@@ -3,6 +3,7 @@
 // the phase levels as the volume threshold reads them, and the column's provenance.
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "voxpack/core/grid.hpp"
 #include "voxpack/ingest/column.hpp"
@@ -24,6 +25,9 @@ struct PhaseReading {
 PhaseReading readPhaseLevels(const Grid<float>& raw, const Grid<std::uint8_t>& prelim,
                              const Grid<std::uint8_t>* region, double blurVoxels, bool voidBright,
                              NoiseModel model, bool tail, int threads);
+
+/// The stderr warning when `--column auto` found no column (`column.note` says why).
+std::string noColumnWarning(const ColumnFit& column);
 
 /// The provenance's "column" record of a fitted, given or absent column.
 nlohmann::json columnJson(const ColumnFit& column, ColumnMode mode);

@@ -64,6 +64,12 @@ double seconds(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+std::string noColumnWarning(const ColumnFit& column) {
+  return "warning: no column found (" + column.note +
+         "); no mask written, the whole box is counted. If the image shows a column, give it: "
+         "--column CX,CY,R (mm)";
+}
+
 nlohmann::json columnJson(const ColumnFit& c, ColumnMode mode) {
   nlohmann::json j = {{"mode", name(mode)}, {"found", c.found}, {"note", c.note}};
   if (c.found) {
@@ -233,10 +239,7 @@ IngestResult segmentVolume(Volume volume, const IngestOptions& o, int threads, P
     progress.report("column fit", 0.0);
     column = fitColumn(prelim, o.columnFit);
     if (column.found && o.refineColumn) column = refine(column);
-    if (!column.found)
-      progress.message("warning: no column found (" + column.note +
-                       "); no mask written, the whole box is counted. If the image shows a "
-                       "column, give it: --column CX,CY,R (mm)");
+    if (!column.found) progress.message(noColumnWarning(column));
   } else if (o.column == ColumnMode::Explicit) {
     if (!(o.columnRadiusMm > 0.0) || !std::isfinite(o.columnXMm) || !std::isfinite(o.columnYMm))
       throw UsageError("--column CX,CY,R needs finite CX, CY (mm) and R > 0 (mm)");

@@ -11,7 +11,6 @@
 #include "column_detail.hpp"
 #include "heap.hpp"
 #include "stream_detail.hpp"
-#include "voxpack/core/errors.hpp"
 #include "voxpack/ingest/segment.hpp"
 
 namespace voxpack::ingest::stream_detail {
@@ -50,9 +49,7 @@ void forOwnColumnSlabs(const Lattice& lat, int slabSlices, std::int64_t chunk,
 ColumnFit streamedColumnFit(const VolumeHeader& h, const IngestOptions& o, double tOtsu,
                             bool voidBright, bool squared, std::int64_t slabPlanes, int threads,
                             Progress& progress, const Communicator* comm, int& passes) {
-  if (o.columnFit.slabSlices < 4) throw InputError("column fit: slab must hold >= 4 slices");
-  if (!(o.columnFit.solidFraction > 0.5 && o.columnFit.solidFraction <= 1.0))
-    throw InputError("column fit: solid fraction must be in (0.5, 1]");
+  column_detail::checkFitOptions(o.columnFit);
   const Lattice& lat = h.lattice;
   const std::int64_t nz = lat.nz(), chunk = std::clamp<std::int64_t>(slabPlanes, 1, nz);
   const auto plane = static_cast<std::size_t>(lat.ny() * lat.nx());
@@ -82,7 +79,8 @@ ColumnFit streamedColumnFit(const VolumeHeader& h, const IngestOptions& o, doubl
     }
     void planes(const Grid<float>& img, std::int64_t) {
       const Grid<std::uint8_t> ind = applyThreshold(img, t, voidBright);
-      for (std::size_t n = 0; n < ind.size(); ++n) count[n % plane] += ind[n] == 0;
+      for (const std::uint8_t* k = ind.data(); k < ind.data() + ind.size(); k += plane)
+        for (std::size_t p = 0; p < plane; ++p) count[p] += k[p] == 0;
     }
     void end() {
       const column_detail::SlabCircle s =
@@ -113,17 +111,12 @@ ColumnFit streamedColumnFit(const VolumeHeader& h, const IngestOptions& o, doubl
   // the raw one, squared, for a signal-free MRI wall).
   const ColumnRefineOptions ro{
       .slabSlices = o.columnFit.slabSlices, .squared = squared, .wallThicknessMm = o.columnWallMm};
-  column_detail::checkRefineOptions(ro);
-  if (std::abs(lat.spacingMm[2] - lat.spacingMm[1]) > 1e-6 * lat.spacingMm[2]) return rough;
   auto source = [&](std::int64_t a, std::int64_t b) {
     return squared ? readVolumeSlab(h, a, b) : denoisedPlanes(h, o, a, b, threads);
   };
-  ColumnFit fit = rough;
-  double innerW = 4.0;
-  for (int iter = 0; iter < ro.iterations; ++iter) {
-    if (!column_detail::WallProfiles::usable(lat, fit, innerW)) return rough;
+  return column_detail::refineIterations(lat, rough, ro, [&](column_detail::WallProfiles& prof) {
     struct Filler {
-      column_detail::WallProfiles prof;
+      column_detail::WallProfiles& prof;
       std::size_t plane;
       void begin(std::int64_t, std::int64_t, std::int64_t) {}
       void planes(const Grid<float>& img, std::int64_t a) {
@@ -131,16 +124,12 @@ ColumnFit streamedColumnFit(const VolumeHeader& h, const IngestOptions& o, doubl
           prof.addPlane(img.data() + static_cast<std::size_t>(k) * plane, a + k);
       }
       void end() {}
-    } filler{column_detail::WallProfiles(lat, fit, innerW, ro), plane};
+    } filler{prof, plane};
     forOwnColumnSlabs(lat, o.columnFit.slabSlices, chunk, comm, progress,
                       "column wall step (pass " + std::to_string(passes + 1) + ")", source, filler);
     ++passes;
-    if (comm && comm->size() > 1) comm->sum(filler.prof.flat());
-    bool done = false;
-    fit = filler.prof.fit(rough, innerW, done);
-    if (done) return fit;
-  }
-  return fit;
+    if (comm && comm->size() > 1) comm->sum(prof.flat());  // each slab from one rank
+  });
 }
 
 }  // namespace voxpack::ingest::stream_detail

@@ -383,10 +383,7 @@ StreamedIngestResult ingestVolumeStreamed(const VolumeHeader& h, const IngestOpt
           o.noise == NoiseChoice::Rician || (o.noise == NoiseChoice::Auto && voidBright);
       column = streamedColumnFit(h, o, tOtsu, voidBright, rician && o.refineColumn, T, threads,
                                  progress, comm, passes);
-      if (!column.found)
-        progress.message("warning: no column found (" + column.note +
-                         "); no mask written, the whole box is counted. If the image shows a "
-                         "column, give it: --column CX,CY,R (mm)");
+      if (!column.found) progress.message(noColumnWarning(column));
       timing["column_s"] = seconds(tc);
       if (volume) {  // the raw sums per plane and wall ring, about the fitted column
         ++passes;
