@@ -1,6 +1,6 @@
 // voxpack flow IN.h5 -o FLOW.json [--axis z|y|x] [--periodic] [--tolerance T]
 // [--max-steps N] [--field OUT.h5] [--csv DIR] [--roi-mm Z0:Z1] [--velocity-mm-s V]
-// [--walls halfway|interpolated]:
+// [--walls halfway|interpolated] [--no-mass-correction]:
 // permeability, tortuosity and pressure drop of a bed by lattice Boltzmann.
 #include <iostream>
 
@@ -61,6 +61,8 @@ class FlowCommand final : public Command {
                    "surfaces of the particle table and the container (keep --tau <= 1)")
         ->check(CLI::IsMember({"halfway", "interpolated"}))
         ->capture_default_str();
+    sub.add_flag("--no-mass-correction", noMassCorrection_,
+                 "interpolated walls: let the mass drift instead of restoring it at each check");
     sub.add_option("--particle-diameter-mm", o_.particleDiameterMm,
                    "d for the correlations (default: spheres' d from the particle table, "
                    "else 6(1-eps)/S_v)");
@@ -74,6 +76,7 @@ class FlowCommand final : public Command {
       throw UsageError("--viscosity-pa-s and --density-kg-m3 must be positive");
     if (o_.lbm.checkInterval < 1) throw UsageError("--check-interval must be at least 1");
     o_.walls = walls_ == "interpolated" ? flow::Walls::Interpolated : flow::Walls::Halfway;
+    o_.lbm.massCorrection = !noMassCorrection_;
     o_.lbm.precision = double_ ? flow::Precision::Double : flow::Precision::Float;
     o_.lbm.threads = resolveThreads(global.threads);
     std::optional<std::pair<double, double>> roi;
@@ -110,7 +113,7 @@ class FlowCommand final : public Command {
 
  private:
   std::string input_, output_, axis_ = "z", field_, csvDir_, roi_, walls_ = "halfway";
-  bool mirror_ = false, double_ = false;
+  bool mirror_ = false, double_ = false, noMassCorrection_ = false;
   flow::FlowOptions o_;
   CLI::Option* roiOpt_ = nullptr;
 };

@@ -423,6 +423,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   j["fluid_cells"] = r.fluidCells;
   j["mass_relative_change"] =
       r.massInitial > 0 ? (r.massFinal - r.massInitial) / r.massInitial : 0.0;
+  j["mass_correction_relative"] = r.massInitial > 0 ? r.massAdded / r.massInitial : 0.0;
   j["lattice"] = {{"tau_plus", lo.tauPlus},
                   {"magic", lo.magic},
                   {"force", lo.force},

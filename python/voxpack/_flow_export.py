@@ -34,7 +34,7 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
          csv_dir: Optional[PathLike] = None, roi_mm=None, velocity_mm_s: Optional[float] = None,
          viscosity_pa_s: Optional[float] = None, density_kg_m3: Optional[float] = None,
          particle_diameter_mm: Optional[float] = None, walls: Optional[str] = None,
-         threads: Optional[int] = None,
+         mass_correction: bool = True, threads: Optional[int] = None,
          memory_limit: Optional[str] = None, progress: Optional[Callable] = None) -> dict:
     """Permeability, tortuosity and pressure drop by lattice Boltzmann (`voxpack flow`).
 
@@ -87,6 +87,9 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
     walls : "halfway" | "interpolated"
         halfway (default): bounce-back on the voxels; interpolated: links cut at the exact
         surfaces of the particle table and the container (keep tau <= 1).
+    mass_correction : bool
+        Interpolated walls: restore the initial mass at every check (default True; the
+        interpolation leaks mass, and the mass put back is `mass_correction_relative`).
     threads, memory_limit, progress : as in pack(). Ctrl-C (KeyboardInterrupt) stops the
         run; nothing is returned and no file is left.
 
@@ -106,7 +109,7 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
             "double": bool(double), "field": field, "csv": csv_dir, "roi_mm": _roi_text(roi_mm),
             "velocity_mm_s": velocity_mm_s, "viscosity_pa_s": viscosity_pa_s,
             "density_kg_m3": density_kg_m3, "particle_diameter_mm": particle_diameter_mm,
-            "walls": walls}
+            "walls": walls, "no_mass_correction": not mass_correction}
     with scratch() as tmp:
         if _is_path(bed):
             src, given = os.fspath(bed), os.fspath(bed)
