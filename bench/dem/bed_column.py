@@ -1,5 +1,32 @@
-"""The column of a bed file, from its mask: shared by bed_structure.py and crystal_order.py."""
+"""A bed file's arrays and its column (from the mask): shared by bed_structure.py,
+crystal_order.py and bulk_exact.py."""
+import argparse
+from types import SimpleNamespace
+
+import h5py
 import numpy as np
+
+
+def bed_arguments():
+    """The scripts' common arguments: BED.h5, D_MM and the bulk margin in d."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("bed")
+    ap.add_argument("d", type=float)
+    ap.add_argument("--bulk-margin-d", type=float, default=3.0)
+    return ap
+
+
+def read_bed(path):
+    """indicator, mask (all ones without one), spacing and origin (z, y, x mm), particle
+    positions (x, y, z mm) and shape strings of a bed file."""
+    with h5py.File(path, "r") as f:
+        ind = f["indicator"][...]
+        return SimpleNamespace(
+            indicator=ind, mask=f["mask"][...] if "mask" in f else np.ones_like(ind),
+            spacing=tuple(f.attrs["spacing_mm"]), origin=tuple(f.attrs["origin_mm"]),
+            positions=f["particles/position_mm"][...],
+            shapes=[s.decode() if isinstance(s, bytes) else str(s)
+                    for s in f["particles/shape"][...]])
 
 
 def column_geometry(mask, spacing_mm, origin_mm):

@@ -18,31 +18,24 @@ Prints JSON:
   peak) and its minimum between 1.2 and 1.7 d.
 The column axis and radius come from the mask (its centroid and largest extent per slice).
 """
-import argparse
 import json
 import math
 
-import h5py
 import numpy as np
 
-from bed_column import column_geometry
+from bed_column import bed_arguments, column_geometry, read_bed
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("bed")
-    ap.add_argument("d", type=float)
-    ap.add_argument("--bulk-margin-d", type=float, default=3.0)
+    ap = bed_arguments()
     ap.add_argument("--rmax-d", type=float, default=2.6)
     ap.add_argument("--bin-d", type=float, default=0.01)
     a = ap.parse_args()
     d = a.d
-    with h5py.File(a.bed, "r") as f:
-        ind = f["indicator"][...]
-        mask = f["mask"][...] if "mask" in f else np.ones_like(ind)
-        sz, sy, sx = f.attrs["spacing_mm"]
-        oz, oy, ox = f.attrs["origin_mm"]
-        pos = f["particles/position_mm"][...]
+    bed = read_bed(a.bed)
+    ind, mask, pos = bed.indicator, bed.mask, bed.positions
+    sz, sy, sx = bed.spacing
+    oz, oy, ox = bed.origin
     nz, ny, nx = ind.shape
     cx, cy, radius, floor = column_geometry(mask, (sz, sy, sx), (oz, oy, ox))
     top = pos[:, 2].max() + 0.5 * d

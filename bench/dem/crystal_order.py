@@ -15,7 +15,6 @@ Prints JSON: the bulk's (>= MARGIN d from the wall, the floor and the bed top) s
 count, mean q6, global Q6, crystal-like fraction; and the crystal-like fraction in bands
 of 1 d from the wall (every sphere >= MARGIN d from floor and top).
 """
-import argparse
 import json
 import math
 
@@ -24,14 +23,11 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.special import sph_harm
 
-from bed_column import column_geometry
+from bed_column import bed_arguments, column_geometry
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("bed")
-    ap.add_argument("d", type=float)
-    ap.add_argument("--bulk-margin-d", type=float, default=3.0)
+    ap = bed_arguments()
     ap.add_argument("--cutoff-d", type=float, default=1.35)
     a = ap.parse_args()
     d = a.d
