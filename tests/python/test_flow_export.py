@@ -211,3 +211,13 @@ def test_flow_walls_equal_cli(cli, small_bed_file, tmp_path):
     assert_same(without_run_records(got), without_run_records(ref))
     with pytest.raises(ValueError, match="walls"):
         voxpack.flow(small_bed_file, walls="exact")
+    # mass_correction=False is the CLI's --no-mass-correction.
+    cli("--threads", "1", "flow", small_bed_file, "-o", tmp_path / "off.json", "--walls",
+        "interpolated", "--no-mass-correction", *FLOW_FLAGS)
+    ref = json.loads((tmp_path / "off.json").read_text())
+    got = voxpack.flow(small_bed_file, walls="interpolated", tolerance=1e-4, check_interval=50,
+                       threads=1, mass_correction=False)
+    assert ref["mass_correction_relative"] == 0.0
+    for d in (got, ref):
+        d["wall_geometry"].pop("distance_s")
+    assert_same(without_run_records(got), without_run_records(ref))
