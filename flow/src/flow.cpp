@@ -429,6 +429,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
                   {"force", lo.force},
                   {"pressure_gradient", dpdx},
                   {"check_interval", lo.checkInterval},
+                  {"mass_correction", lo.massCorrection && r.interpolatedLinks > 0},
                   {"tolerance", lo.tolerance},
                   {"max_steps", lo.maxSteps},
                   {"precision", lo.precision == Precision::Float ? "float32" : "float64"},

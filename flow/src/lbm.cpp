@@ -532,8 +532,8 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
     res.sumSpeed = sums.speed;
     if (o.massCorrection && res.interpolatedLinks > 0) {
       // Bouzidi's interpolation gains or loses a little mass at every step, and uncorrected
-      // the loss accumulates (-1 % over 2e5 steps on a DEM bed, docs/flow.md). A uniform rest
-      // density puts it back without touching the momentum; it moves k by the mass's share.
+      // the loss accumulates (-1.5 % in 1e5 steps on a DEM bed, and k +1.5 %: docs/flow.md).
+      // A uniform rest density puts it back without touching the momentum.
       const double delta = (res.massInitial - solver.mass()) / static_cast<double>(n);
       solver.addRestDensity(delta);
       res.massAdded += delta * static_cast<double>(n);

@@ -184,7 +184,10 @@ TEST(FlowLbm, MassCorrectionHoldsTheMassOfInterpolatedWalls) {
   // Put back, and in the direction the uncorrected run lost (the leak depends on the state,
   // so the two totals need not be equal).
   EXPECT_GT(on.massAdded * -driftOff, 0.0);
-  EXPECT_NEAR(on.meanAxialVelocity / off.meanAxialVelocity, 1.0, 10 * std::abs(driftOff));
+  // A lighter fluid under the same force per volume flows faster: uncorrected, the velocity
+  // rises as the mass falls, one for one.
+  EXPECT_NEAR(on.meanAxialVelocity / off.meanAxialVelocity, 1.0 + driftOff,
+              0.3 * std::abs(driftOff));
   // Halfway walls conserve mass already: the correction leaves them alone, to the bit.
   LbmDomain h;
   double hDia = 0;
