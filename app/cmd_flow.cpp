@@ -32,7 +32,8 @@ class FlowCommand final : public Command {
     sub.add_flag("--mirror", mirror_,
                  "close the ends with the mirrored sample instead of reservoirs");
     sub.add_option("--reservoir-layers", o_.reservoirLayers,
-                   "fluid layers before and after the sample")
+                   "fluid layers before and after the sample (0: 0.6 particle diameters, at "
+                   "least 4)")
         ->capture_default_str();
     sub.add_option("--tolerance", o_.lbm.tolerance,
                    "stop when the mean velocity changes by less than this per check")

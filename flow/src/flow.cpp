@@ -16,6 +16,9 @@ namespace voxpack::flow {
 namespace {
 
 constexpr double kDarcyMm2 = 9.869233e-7;  // 1 darcy = 9.869233e-13 m^2
+// Automatic reservoir thickness in particle diameters: within 0.05 % of a 2 d reservoir's k
+// on the DEM sphere bed at 10 and 30 voxels per d (docs/flow.md, "Reservoir thickness").
+constexpr double kReservoirD = 0.6;
 const char* kAxisName[3] = {"z", "y", "x"};
 
 // Sample coordinates (k, j, i) of a C-order offset.
@@ -182,9 +185,10 @@ double sauterDiameterFromTable(const Bed& bed, std::string& kind) {
 
 }  // namespace
 
-FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudget& budget,
+FlowReport computeFlow(const Bed& bedIn, const FlowOptions& options, const MemoryBudget& budget,
                        Progress& progress) {
   const auto tStart = std::chrono::steady_clock::now();
+  FlowOptions o = options;  // the reservoir's automatic thickness is resolved below
   bedIn.validate();
   // A packed column's end layers lie outside the mask (the container's floor and lid):
   // along z they are dropped, so the sample starts and ends with fluid-bearing layers.
@@ -215,8 +219,9 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
                      std::to_string(lat.spacingMm[0]) + ", " + std::to_string(lat.spacingMm[1]) +
                      ", " + std::to_string(lat.spacingMm[2]) + " mm)");
   if (o.axis < 0 || o.axis > 2) throw InputError("flow: axis must be z, y or x");
-  if (!o.periodic && o.inflow == Inflow::Reservoirs && o.reservoirLayers < 2)
-    throw InputError("flow: --reservoir-layers must be at least 2");
+  const bool reservoirs = !o.periodic && o.inflow == Inflow::Reservoirs;
+  if (reservoirs && o.reservoirLayers != 0 && o.reservoirLayers < 2)
+    throw InputError("flow: --reservoir-layers must be 0 (automatic) or at least 2");
   const double h = lat.spacingMm[0];
   const BedSummary summary = summarize(bed);
   if (summary.emptyMask) throw InputError("flow: the mask selects no voxel");
@@ -235,6 +240,17 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
     dMm = 6.0 * (1.0 - eps) / sv;
     dSource = "Sauter 6(1-eps)/S_v";
   }
+  // The reservoirs let the flow leaving the sample's cut face spread before it re-enters the
+  // other face. Thinner than about half a particle, they add the resistance of two faces'
+  // pores lined up against each other: k -4.6 % with 4 layers at 30 voxels per d on the DEM
+  // sphere bed (docs/flow.md, "Reservoir thickness"). So by default they are kReservoirD d
+  // thick, and never under 4 layers.
+  const bool autoReservoir = reservoirs && o.reservoirLayers == 0;
+  if (autoReservoir) {
+    // 1e-9: 0.6 d / h that is a whole number in decimal must not round up past it.
+    const double layers = std::isfinite(dMm) && dMm > 0 ? kReservoirD * dMm / h - 1e-9 : 0.0;
+    o.reservoirLayers = std::max(4, static_cast<int>(std::ceil(layers)));
+  }
   const Column col = columnOf(bed, o.axis);
   const double columnMm = col.present ? 2.0 * col.radius * h : 0.0;
 
@@ -245,9 +261,10 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& o, const MemoryBudge
   j["boundary"] = o.periodic                   ? "periodic"
                   : o.inflow == Inflow::Mirror ? "walls+mirror"
                                                : "walls+reservoirs";
-  j["reservoir_layers"] = (!o.periodic && o.inflow == Inflow::Reservoirs)
-                              ? nlohmann::json(o.reservoirLayers)
-                              : nlohmann::json(nullptr);
+  j["reservoir_layers"] = reservoirs ? nlohmann::json(o.reservoirLayers) : nlohmann::json(nullptr);
+  j["reservoir_layers_source"] = !reservoirs     ? nlohmann::json(nullptr)
+                                 : autoReservoir ? nlohmann::json("automatic: 0.6 d, at least 4")
+                                                 : nlohmann::json("option");
   j["voxel_mm"] = h;
   j["dims"] = lat.dims;
   j["trimmed_layers"] = {trimLo, trimHi};  // end layers outside the mask, dropped

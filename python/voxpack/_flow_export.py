@@ -57,7 +57,8 @@ def flow(bed, *, axis: str = "z", periodic: bool = False, mirror: bool = False,
     mirror : bool
         Close the ends with the mirrored sample instead of reservoirs (excludes periodic).
     reservoir_layers : int
-        Fluid layers before and after the sample (default 4, >= 1).
+        Fluid layers before and after the sample (default: 0.6 particle diameters, at
+        least 4; else >= 2).
     tolerance : float
         Stop when the mean velocity changes by less than this (relative) per check
         (default 1e-5).

@@ -191,6 +191,34 @@ TEST(FlowBed, SauterDiameterFromTheParticleTable) {
   EXPECT_EQ(computeFlow(bed, o, {}).json["particle_diameter_source"], "Sauter 6(1-eps)/S_v");
 }
 
+// The reservoirs' automatic thickness: 0.6 d in layers, at least 4 (docs/flow.md, "Reservoir
+// thickness"); a given count is kept; a small d gives the floor of 4; periodic runs have none.
+TEST(FlowBed, ReservoirThicknessFollowsTheParticleDiameter) {
+  Bed bed = emptyColumn(6, 12, 5.0, 0.5);
+  bed.indicator(3, 6, 6) = 0;
+  bed.particles.positionMm = {Vec3(0, 0, 1)};
+  FlowOptions o = quick();
+  o.lbm.maxSteps = 50;
+  auto layers = [&](const char* shape, int asked) {
+    bed.particles.shape = {shape};
+    o.reservoirLayers = asked;
+    const FlowReport r = computeFlow(bed, o, {});
+    return std::make_pair(r.json["reservoir_layers"], r.json["reservoir_layers_source"]);
+  };
+  // 0.6 x 7.5 / 0.5 = 9 exactly: not rounded up to 10.
+  EXPECT_EQ(layers("sphere:d=7.5", 0).first.get<int>(), 9);
+  EXPECT_EQ(layers("sphere:d=7.5", 0).second, "automatic: 0.6 d, at least 4");
+  EXPECT_EQ(layers("sphere:d=7.6", 0).first.get<int>(), 10);
+  EXPECT_EQ(layers("sphere:d=1", 0).first.get<int>(), 4);  // 1.2 layers: the floor of 4
+  EXPECT_EQ(layers("sphere:d=7.5", 3).first.get<int>(), 3);
+  EXPECT_EQ(layers("sphere:d=7.5", 3).second, "option");
+  EXPECT_THROW(layers("sphere:d=7.5", 1), InputError);
+  EXPECT_THROW(layers("sphere:d=7.5", -2), InputError);
+  o.periodic = true;
+  EXPECT_TRUE(layers("sphere:d=7.5", 0).first.is_null());
+  EXPECT_TRUE(layers("sphere:d=7.5", 0).second.is_null());
+}
+
 TEST(FlowBed, CropKeepsTheSelectedLayers) {
   Bed bed = emptyColumn(10, 8, 3.0, 0.5);
   bed.indicator(4, 3, 3) = 0;

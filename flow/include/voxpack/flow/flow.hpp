@@ -30,13 +30,13 @@ struct FlowOptions {
   int axis = 0;           ///< flow axis in array order: 0 = z, 1 = y, 2 = x
   bool periodic = false;  ///< every axis periodic (unit cells); else walls across the flow
   Inflow inflow = Inflow::Reservoirs;  ///< ends along the axis when not periodic
-  int reservoirLayers = 4;             ///< fluid layers at each end (Reservoirs), >= 1
-  LbmOptions lbm;                      ///< solver settings (axis and force are set by computeFlow)
-  double latticeVelocity = 1e-3;       ///< target mean pore velocity (lattice units) for the force
-  double velocityMmS = 1.0;            ///< superficial velocity for the pressure-gradient block
-  double viscosityPaS = 1.0e-3;        ///< fluid dynamic viscosity (water at 20 C)
-  double densityKgM3 = 998.0;          ///< fluid density (water at 20 C)
-  double particleDiameterMm = 0;       ///< d for the correlations; 0 = 6(1-eps)/S_v (Sauter)
+  int reservoirLayers = 0;  ///< fluid layers at each end (Reservoirs): 0 = 0.6 d (>= 4), else >= 2
+  LbmOptions lbm;           ///< solver settings (axis and force are set by computeFlow)
+  double latticeVelocity = 1e-3;  ///< target mean pore velocity (lattice units) for the force
+  double velocityMmS = 1.0;       ///< superficial velocity for the pressure-gradient block
+  double viscosityPaS = 1.0e-3;   ///< fluid dynamic viscosity (water at 20 C)
+  double densityKgM3 = 998.0;     ///< fluid density (water at 20 C)
+  double particleDiameterMm = 0;  ///< d for the correlations; 0 = 6(1-eps)/S_v (Sauter)
   /// Interpolated: the signed distance of the particle table's shapes with a closed form
   /// (sphere, cylinder, ring, box) and of a cylinder or box container (provenance
   /// scene.container) sets the wall cut of each link; other surfaces stay halfway.
