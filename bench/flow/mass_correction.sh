@@ -21,24 +21,22 @@ for tol in 1e-5 1e-7; do
     echo "$l0 | $(cut -d' ' -f1-3 /proc/loadavg)" > "$OUT/load_${tol}_$mc.txt"
   done
 done
-/usr/bin/python3 - "$OUT" "$MAX" "$TH" <<'PY'
+PYTHONPATH="$(dirname "$0")" /usr/bin/python3 - "$OUT" "$MAX" "$TH" <<'PY'
 import json, os, sys
+from run_record import DEM_BED, run_record
 out, mx, th = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
 rows = []
 for tol in ("1e-5", "1e-7"):
     for mc in ("on", "off"):
         j = json.load(open(os.path.join(out, f"flow_{tol}_{mc}.json")))
-        wall, cpu = open(os.path.join(out, f"time_{tol}_{mc}.txt")).read().split()[-2:]
         rows.append({"tolerance": float(tol), "mass_correction": mc == "on",
                      "status": j["status"], "steps": j["steps"], "residual": j["residual"],
                      "permeability_mm2": j["permeability_mm2"],
                      "mass_relative_change": j["mass_relative_change"],
                      "mass_correction_relative": j["mass_correction_relative"],
                      "interpolated_links": j["interpolated_links"], "fluid_cells": j["fluid_cells"],
-                     "wall_s": float(wall), "cpu_s": float(cpu),
-                     "load_1_5_15": open(os.path.join(out, f"load_{tol}_{mc}.txt")).read().strip()})
-json.dump({"bed": "voxpack pack --mode dem --shape sphere:d=3 --container cylinder:d=15,h=20 "
-                  "--count 60 --seed 1 --voxel-size 0.3",
+                     **run_record(out, f"{tol}_{mc}")})
+json.dump({"bed": DEM_BED + " --voxel-size 0.3",
            "flow": f"voxpack flow --roi-mm 1:7 --walls interpolated --tolerance T --max-steps {mx} "
                    f"--threads {th} [--no-mass-correction] (walls+reservoirs, tau 1, float32)",
            "rows": rows}, open(os.path.join(out, "flow_mass_correction.json"), "w"), indent=1)
