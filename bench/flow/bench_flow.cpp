@@ -7,7 +7,7 @@
 //   tau:       steps to convergence against the relaxation time (k unchanged)
 //   precision: float32 against float64 populations on the same cells
 //   bedres:    one packing re-digitised at several voxel sizes, then computeFlow on each
-//              (args: OUT BED.h5 VOXEL_MM_LIST Z0:Z1 WALLS_LIST [THREADS])
+//              (args: OUT BED.h5 VOXEL_MM_LIST Z0:Z1 WALLS_LIST [THREADS] [LAYERS: 0 = 0.6 d])
 //   cellres:   one tilted particle in a periodic cubic cell at several voxels per d, halfway
 //              and interpolated walls through computeFlow (args: OUT SHAPE SOLID_FRACTION
 //              PER_D_LIST [THREADS]): which wall treatment converges, on one shape alone
@@ -402,7 +402,9 @@ int main(int argc, char** argv) {
     out["settings"] = "float32, tolerance 1e-5 per 100 steps, 2 threads, periodic, force 1e-6";
   } else if (mode == "bedres") {
     if (argc < 7) {
-      std::fprintf(stderr, "usage: bedres OUT BED.h5 VOXEL_MM_LIST Z0:Z1 WALLS_LIST [THREADS]\n");
+      std::fprintf(stderr,
+                   "usage: bedres OUT BED.h5 VOXEL_MM_LIST Z0:Z1 WALLS_LIST [THREADS] "
+                   "[RESERVOIR_LAYERS (0: automatic)]\n");
       return 2;
     }
     const Bed src = readBed(argv[3]);
@@ -413,6 +415,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> walls;
     for (char* t = std::strtok(argv[6], ","); t; t = std::strtok(nullptr, ",")) walls.push_back(t);
     const int threads = argc > 7 ? std::atoi(argv[7]) : 2;
+    const int layers = argc > 8 ? std::atoi(argv[8]) : 0;
     json rows = json::array();
     for (double h : voxels) {
       const auto tb = std::chrono::steady_clock::now();
@@ -423,6 +426,7 @@ int main(int argc, char** argv) {
         flow::FlowOptions o;
         o.walls = w == "interpolated" ? flow::Walls::Interpolated : flow::Walls::Halfway;
         o.lbm.threads = threads;
+        o.reservoirLayers = layers;
         const double c0 = cpuSeconds();
         const flow::FlowReport rep = flow::computeFlow(bed, o, defaultMemoryBudget());
         const double cpu = cpuSeconds() - c0;
@@ -445,11 +449,11 @@ int main(int argc, char** argv) {
     out["bed"] = argv[3];
     out["bed_provenance_scene"] = src.provenance.value("scene", json());
     out["rows"] = rows;
-    out["settings"] =
-        "computeFlow defaults (walls + reservoirs, tau+ 1, float32, tolerance "
-        "1e-5), ROI " +
-        std::string(argv[5]) + " mm, " + std::to_string(threads) +
-        " threads; each voxel size re-digitises the same particle table";
+    out["settings"] = "computeFlow defaults (walls + reservoirs of " +
+                      (layers > 0 ? std::to_string(layers) + " layers" : std::string("0.6 d")) +
+                      ", tau+ 1, float32, tolerance 1e-5), ROI " + std::string(argv[5]) + " mm, " +
+                      std::to_string(threads) +
+                      " threads; each voxel size re-digitises the same particle table";
   } else if (mode == "cellres") {
     if (argc < 6) {
       std::fprintf(stderr, "usage: cellres OUT SHAPE SOLID_FRACTION PER_D_LIST [THREADS]\n");
