@@ -26,8 +26,8 @@ namespace {
 constexpr const char* kFigureNames[] = {"fig_axial.png", "fig_radial.png", "fig_shadow.png",
                                         "fig_slice.png", "fig_s2.png",     "fig_mes.png"};
 constexpr const char* kFigureCaptions[] = {
-    "Axial packing density along the column and the distribution of slice densities with "
-    "a normal fit (paper Fig. 4).",
+    ("Axial packing density along the column and the distribution of slice densities with "
+     "a normal fit (paper Fig. 4)."),
     "Radial packing density against distance from the column wall (paper Fig. 6).",
     "Shadow images: mean solid fraction along y (paper Fig. 7).",
     "A horizontal slice of the void structure at mid-height, white = void (paper Fig. 8).",
