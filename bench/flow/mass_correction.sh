@@ -3,9 +3,11 @@
 # DEM sphere bed of dem_bed.sh at 0.3 mm (60 spheres d 3 mm, D/d 5, seed 1), walls +
 # reservoirs, tau 1, float32, at the default tolerance 1e-5 and at 1e-7, --max-steps MAX.
 # FLOW.json files and a summary (OUTDIR/flow_mass_correction.json) go to OUTDIR.
+# RESERVOIR_LAYERS (environment, default 0 = the automatic 0.6 d) sets --reservoir-layers; the
+# committed bench/results/flow_mass_correction_2026-12-07.json ran before that default, at 4.
 # Usage: mass_correction.sh VOXPACK OUTDIR [MAX_STEPS (100000)] [THREADS (1)]
 set -e
-VOXPACK=$1; OUT=$2; MAX=${3:-100000}; TH=${4:-1}
+VOXPACK=$1; OUT=$2; MAX=${3:-100000}; TH=${4:-1}; LAYERS=${RESERVOIR_LAYERS:-0}
 mkdir -p "$OUT"
 [ -f "$OUT/bed.h5" ] || "$VOXPACK" pack --mode dem --shape sphere:d=3 \
     --container cylinder:d=15,h=20 --voxel-size 0.3 --count 60 --seed 1 \
@@ -17,7 +19,7 @@ for tol in 1e-5 1e-7; do
     l0=$(cut -d' ' -f1-3 /proc/loadavg)
     /usr/bin/time -f "%e %U" -o "$OUT/time_${tol}_$mc.txt" "$VOXPACK" flow "$OUT/bed.h5" \
         -o "$OUT/flow_${tol}_$mc.json" --roi-mm 1:7 --walls interpolated --tolerance "$tol" \
-        --max-steps "$MAX" --threads "$TH" --quiet $extra
+        --max-steps "$MAX" --threads "$TH" --reservoir-layers "$LAYERS" --quiet $extra
     echo "$l0 | $(cut -d' ' -f1-3 /proc/loadavg)" > "$OUT/load_${tol}_$mc.txt"
   done
 done

@@ -19,6 +19,8 @@ constexpr double kDarcyMm2 = 9.869233e-7;  // 1 darcy = 9.869233e-13 m^2
 // Automatic reservoir thickness in particle diameters: within 0.05 % of a 2 d reservoir's k
 // on the DEM sphere bed at 10 and 30 voxels per d (docs/flow.md, "Reservoir thickness").
 constexpr double kReservoirD = 0.6;
+constexpr int kReservoirMinLayers = 4;
+constexpr const char* kReservoirAutoName = "automatic: 0.6 d, at least 4";  // the two above
 const char* kAxisName[3] = {"z", "y", "x"};
 
 // Sample coordinates (k, j, i) of a C-order offset.
@@ -249,7 +251,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& options, const Memor
   if (autoReservoir) {
     // 1e-9: 0.6 d / h that is a whole number in decimal must not round up past it.
     const double layers = std::isfinite(dMm) && dMm > 0 ? kReservoirD * dMm / h - 1e-9 : 0.0;
-    o.reservoirLayers = std::max(4, static_cast<int>(std::ceil(layers)));
+    o.reservoirLayers = std::max(kReservoirMinLayers, static_cast<int>(std::ceil(layers)));
   }
   const Column col = columnOf(bed, o.axis);
   const double columnMm = col.present ? 2.0 * col.radius * h : 0.0;
@@ -263,7 +265,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& options, const Memor
                                                : "walls+reservoirs";
   j["reservoir_layers"] = reservoirs ? nlohmann::json(o.reservoirLayers) : nlohmann::json(nullptr);
   j["reservoir_layers_source"] = !reservoirs     ? nlohmann::json(nullptr)
-                                 : autoReservoir ? nlohmann::json("automatic: 0.6 d, at least 4")
+                                 : autoReservoir ? nlohmann::json(kReservoirAutoName)
                                                  : nlohmann::json("option");
   j["voxel_mm"] = h;
   j["dims"] = lat.dims;
@@ -446,7 +448,7 @@ FlowReport computeFlow(const Bed& bedIn, const FlowOptions& options, const Memor
                   {"force", lo.force},
                   {"pressure_gradient", dpdx},
                   {"check_interval", lo.checkInterval},
-                  {"mass_correction", lo.massCorrection && r.interpolatedLinks > 0},
+                  {"mass_correction", r.massCorrected},
                   {"tolerance", lo.tolerance},
                   {"max_steps", lo.maxSteps},
                   {"precision", lo.precision == Precision::Float ? "float32" : "float64"},

@@ -522,6 +522,7 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
   double previous = std::numeric_limits<double>::quiet_NaN();
   res.residual = std::numeric_limits<double>::infinity();
   const std::int64_t interval = std::max<std::int64_t>(1, o.checkInterval);
+  res.massCorrected = o.massCorrection && res.interpolatedLinks > 0;  // halfway conserves mass
   while (res.steps < o.maxSteps) {
     const bool check = (res.steps + 1) % interval == 0 || res.steps + 1 == o.maxSteps;
     BlockSums sums;
@@ -530,7 +531,7 @@ LbmResult runTyped(const LbmDomain& dom, const LbmOptions& o, Progress& progress
     if (!check) continue;
     res.sumAxialVelocity = sums.axial;
     res.sumSpeed = sums.speed;
-    if (o.massCorrection && res.interpolatedLinks > 0) {
+    if (res.massCorrected) {
       // Bouzidi's interpolation gains or loses a little mass at every step, and uncorrected
       // the loss accumulates (-1.5 % in 1e5 steps on a DEM bed, and k +1.5 %: docs/flow.md).
       // A uniform rest density puts it back without touching the momentum.

@@ -105,6 +105,7 @@ struct LbmResult {
   double massInitial = 0;        ///< sum of rho over all fluid cells at the start
   double massFinal = 0;          ///< sum of rho over all fluid cells at the end
   double massAdded = 0;  ///< mass the correction put back in total (LbmOptions::massCorrection)
+  bool massCorrected = false;         ///< the correction ran (interpolated links and the option)
   std::size_t fluidCells = 0;         ///< cells updated per step
   std::size_t sampleFluidCells = 0;   ///< fluid cells in the sample
   std::size_t interpolatedLinks = 0;  ///< wall links with interpolated bounce-back
