@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "itk_bridge.hpp"
+#include "text.hpp"
 #include "voxpack/core/errors.hpp"
 
 namespace voxpack::ingest {
@@ -21,17 +22,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
+using text::lower;
+using text::trim;
 
 std::size_t metComponentBytes(const std::string& metType) {
   static const std::map<std::string, std::size_t> sizes = {
@@ -49,18 +41,7 @@ std::size_t metComponentBytes(const std::string& metType) {
 void checkMetaImageHeader(const fs::path& header) {
   std::ifstream in(header, std::ios::binary);
   if (!in) throw IoError(header.string() + ": cannot open");
-  std::map<std::string, std::string> kv;
-  std::string line;
-  std::size_t read = 0;
-  // A header is a few hundred bytes; past 1 MiB (an .mha's voxels) the key is not coming.
-  while (read < (std::size_t{1} << 20) && std::getline(in, line)) {
-    read += line.size() + 1;
-    const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
-    const std::string key = lower(trim(line.substr(0, eq)));
-    kv[key] = trim(line.substr(eq + 1));
-    if (key == "elementdatafile") break;
-  }
+  std::map<std::string, std::string> kv = text::metaImageFields(in);
   const auto dataIt = kv.find("elementdatafile");
   if (dataIt == kv.end()) throw FormatError(header.string() + ": no ElementDataFile in the header");
   const std::string dataName = dataIt->second;

@@ -30,22 +30,23 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cstdio>
+#include <fstream>
 #include <mutex>
 
 #include "itk_convert.hpp"
+#include "text.hpp"
 #include "voxpack/core/errors.hpp"
 
 namespace voxpack::ingest::bridge {
 namespace {
 
+using text::lower;
+using text::trim;
+
 using FloatImage3 = itk::Image<float, 3>;
 using FloatImage2 = itk::Image<float, 2>;
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 Raw<float> fromItk(const FloatImage3* img) {
   const auto size = img->GetLargestPossibleRegion().GetSize();
@@ -62,6 +63,26 @@ Raw<float> fromItk(const FloatImage3* img) {
   return r;
 }
 
+// ITK 5.2's MetaIO reads NDims numbers for each per-axis field (DimSize, ElementSpacing,
+// Offset, ...) and trusts the count, though it keeps those values in arrays of 10
+// (metaImage.h): a fuzzed 'NDims = 3111...1' kept its reader extracting from a spent stream
+// for minutes (fuzz_image_header, timeout). Every reading path comes through createIO, so
+// the count is checked here before ITK parses the header.
+constexpr int kMetaMaxDims = 10;
+
+void checkMetaImageDims(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  const auto kv = text::metaImageFields(in);
+  const auto nd = kv.find("ndims");
+  if (nd == kv.end()) return;
+  const std::string& value = nd->second;
+  int dims = 0;
+  const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), dims);
+  if (ec != std::errc() || end != value.data() + value.size() || dims < 1 || dims > kMetaMaxDims)
+    throw FormatError(file + ": NDims '" + value.substr(0, 40) +
+                      "' is not a number of axes from 1 to " + std::to_string(kMetaMaxDims));
+}
+
 itk::ImageIOBase::Pointer createIO(const std::string& file) {
   registerFactories();
   // NRRD and MetaImage files get their own reader: ITK's factory asks every reader whether
@@ -76,6 +97,7 @@ itk::ImageIOBase::Pointer createIO(const std::string& file) {
     io = itk::MetaImageIO::New();
   if (io && !io->CanReadFile(file.c_str()))
     throw FormatError(file + ": not a " + (ext[1] == 'n' ? "NRRD" : "MetaImage") + " file");
+  if (ext == ".mha" || ext == ".mhd") checkMetaImageDims(file);
   if (!io) io = itk::ImageIOFactory::CreateImageIO(file.c_str(), itk::IOFileModeEnum::ReadMode);
   if (!io) throw FormatError(file + ": not an image format ITK can read");
   io->SetFileName(file);

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "itk_bridge.hpp"
+#include "text.hpp"
 #include "voxpack/core/errors.hpp"
 #include "voxpack/ingest/stream.hpp"
 
@@ -23,17 +24,8 @@ namespace voxpack::ingest {
 namespace fs = std::filesystem;
 namespace {
 
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
+using text::lower;
+using text::trim;
 
 // NRRD type names (the teem spec's synonyms) -> bytes and kind.
 bool nrrdType(const std::string& t, int& bytes, char& kind) {
@@ -180,17 +172,8 @@ StreamSource metaSource(const fs::path& file, std::uint64_t voxels) {
   StreamSource s;
   std::ifstream in(file, std::ios::binary);
   if (!in) throw IoError(file.string() + ": cannot open");
-  std::map<std::string, std::string> kv;
-  std::string line;
   std::uint64_t pos = 0;
-  while (std::getline(in, line)) {
-    pos += line.size() + 1;
-    const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
-    const std::string key = lower(trim(line.substr(0, eq)));
-    kv[key] = trim(line.substr(eq + 1));
-    if (key == "elementdatafile") break;
-  }
+  std::map<std::string, std::string> kv = text::metaImageFields(in, &pos);
   if (lower(kv["compresseddata"]) == "true") {
     s.whyNot = "compressed MetaImage (gzip cannot seek)";
     return s;

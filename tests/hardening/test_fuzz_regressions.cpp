@@ -267,6 +267,21 @@ TEST(FuzzRegressions, MhaWithADataFilePatternIsRefusedInsteadOfSigfpe) {
                             "pattern.mha"));
 }
 
+// fuzz_image_header, timeout: a detached MetaImage header with 'NDims = 3111...1' (36
+// digits) beside a 4 KiB data.raw. ITK 5.2's MetaIO reads NDims values for each per-axis
+// field from the spent stream and spun for over a minute (its per-axis arrays hold 10).
+// The header is refused before ITK reads it.
+TEST(FuzzRegressions, MhdWithAHugeNDimsIsRefusedInsteadOfSpinning) {
+  TempDir tmp;
+  std::vector<char> raw(4096);
+  for (std::size_t n = 0; n < raw.size(); ++n) raw[n] = static_cast<char>(n * 7);
+  std::ofstream(tmp / "data.raw", std::ios::binary)
+      .write(raw.data(), static_cast<std::streamsize>(raw.size()));
+  expectIngestRefused(
+      tmp, imageFromFinding(tmp.path(), "timeout-c4af93032044a94b2ca30f3fe6e5476cf3ec5985", 3,
+                            "huge_ndims.mhd"));
+}
+
 // fuzz_bed_reader, heap over-reads in H5Dread: a chunk of /indicator stores (21 bytes, not
 // deflated) or inflates to (29 bytes) fewer bytes than the chunk holds (120 or 280), and
 // libhdf5 1.10.8 copies the whole chunk out of the short buffer (ASan: heap-buffer-overflow;
