@@ -72,15 +72,17 @@ constexpr int kMetaMaxDims = 10;
 
 void checkMetaImageDims(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
-  const auto kv = text::metaImageFields(in);
-  const auto nd = kv.find("ndims");
-  if (nd == kv.end()) return;
-  const std::string& value = nd->second;
-  int dims = 0;
-  const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), dims);
-  if (ec != std::errc() || end != value.data() + value.size() || dims < 1 || dims > kMetaMaxDims)
-    throw FormatError(file + ": NDims '" + value.substr(0, 40) +
-                      "' is not a number of axes from 1 to " + std::to_string(kMetaMaxDims));
+  if (!in) throw IoError(file + ": cannot open");
+  // Every NDims line: MetaIO acts on each as it meets it, not on the last.
+  for (const auto& f : text::metaImageFieldList(in)) {
+    if (f.key != "ndims") continue;
+    int dims = 0;
+    const auto [end, ec] = std::from_chars(f.value.data(), f.value.data() + f.value.size(), dims);
+    if (ec != std::errc() || end != f.value.data() + f.value.size() || dims < 1 ||
+        dims > kMetaMaxDims)
+      throw FormatError(file + ": NDims '" + f.value.substr(0, 40) +
+                        "' is not a number of axes from 1 to " + std::to_string(kMetaMaxDims));
+  }
 }
 
 itk::ImageIOBase::Pointer createIO(const std::string& file) {

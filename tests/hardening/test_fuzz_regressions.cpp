@@ -267,7 +267,7 @@ TEST(FuzzRegressions, MhaWithADataFilePatternIsRefusedInsteadOfSigfpe) {
                             "pattern.mha"));
 }
 
-// fuzz_image_header, timeout: a detached MetaImage header with 'NDims = 3111...1' (36
+// fuzz_image_header, timeout: a detached MetaImage header with 'NDims = 3111...1' (40
 // digits) beside a 4 KiB data.raw. ITK 5.2's MetaIO reads NDims values for each per-axis
 // field from the spent stream and spun for over a minute (its per-axis arrays hold 10).
 // The header is refused before ITK reads it.
@@ -277,9 +277,34 @@ TEST(FuzzRegressions, MhdWithAHugeNDimsIsRefusedInsteadOfSpinning) {
   for (std::size_t n = 0; n < raw.size(); ++n) raw[n] = static_cast<char>(n * 7);
   std::ofstream(tmp / "data.raw", std::ios::binary)
       .write(raw.data(), static_cast<std::streamsize>(raw.size()));
-  expectIngestRefused(
-      tmp, imageFromFinding(tmp.path(), "timeout-c4af93032044a94b2ca30f3fe6e5476cf3ec5985", 3,
-                            "huge_ndims.mhd"));
+  const auto image = imageFromFinding(
+      tmp.path(), "timeout-c4af93032044a94b2ca30f3fe6e5476cf3ec5985", 3, "huge_ndims.mhd");
+  expectIngestRefused(tmp, image);
+  const auto [code, err] =
+      boundedCli({"ingest", image.string(), "-o", (tmp / "b.h5").string()}, tmp / "err2.txt", 60);
+  EXPECT_NE(err.find("NDims"), std::string::npos) << err;
+}
+
+// The same count written the other ways MetaIO reads a key: after a ':' separator, in a
+// key with a NUL byte or a form feed before it, and ahead of a valid repeat (MetaIO acts on
+// the first). Each is refused like the plain one.
+TEST(FuzzRegressions, MhdHugeNDimsInMetaIoSpellingsIsRefused) {
+  const std::string huge = "3111111111111111111111111111111111111111";
+  const std::vector<std::string> spellings = {
+      "NDims: " + huge + "\n", std::string("NDims\0x = ", 10) + huge + "\n",
+      "\fNDims = " + huge + "\n", "NDims = " + huge + "\nNDims = 3\n"};
+  for (std::size_t k = 0; k < spellings.size(); ++k) {
+    TempDir tmp;
+    std::vector<char> raw(4096, 1);
+    std::ofstream(tmp / "data.raw", std::ios::binary)
+        .write(raw.data(), static_cast<std::streamsize>(raw.size()));
+    const auto image = tmp / ("spelling" + std::to_string(k) + ".mhd");
+    std::ofstream(image, std::ios::binary)
+        << "ObjectType = Image\n"
+        << spellings[k]
+        << "DimSize = 16 16 16\nElementType = MET_UCHAR\nElementDataFile = data.raw\n";
+    expectIngestRefused(tmp, image);
+  }
 }
 
 // fuzz_bed_reader, heap over-reads in H5Dread: a chunk of /indicator stores (21 bytes, not
