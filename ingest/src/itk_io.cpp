@@ -29,7 +29,6 @@
 #include <itkVTKImageIOFactory.h>
 
 #include <algorithm>
-#include <cctype>
 #include <charconv>
 #include <cstdio>
 #include <fstream>
@@ -43,7 +42,6 @@ namespace voxpack::ingest::bridge {
 namespace {
 
 using text::lower;
-using text::trim;
 
 using FloatImage3 = itk::Image<float, 3>;
 using FloatImage2 = itk::Image<float, 2>;

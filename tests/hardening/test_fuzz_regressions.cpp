@@ -217,14 +217,23 @@ std::filesystem::path imageFromFinding(const std::filesystem::path& dir, const s
   return image;
 }
 
-// voxpack ingest IMAGE: exit 2, one `error:` line naming the file, no bed.
-void expectIngestRefused(const TempDir& tmp, const std::filesystem::path& image) {
+// voxpack ingest IMAGE: exit 2, one `error:` line naming the file, no bed. Returns stderr.
+std::string expectIngestRefused(const TempDir& tmp, const std::filesystem::path& image) {
   const auto [code, err] =
       boundedCli({"ingest", image.string(), "-o", (tmp / "bed.h5").string()}, tmp / "err.txt", 60);
   EXPECT_EQ(code, 2) << err;
   EXPECT_EQ(countErrorLines(err), 1) << err;
   EXPECT_NE(err.find(image.filename().string()), std::string::npos) << err;
   EXPECT_FALSE(std::filesystem::exists(tmp / "bed.h5"));
+  return err;
+}
+
+// The 4 KiB data.raw that fuzz_image_header writes beside its detached headers.
+void writeFuzzDataRaw(const std::filesystem::path& dir) {
+  std::vector<char> raw(4096);
+  for (std::size_t n = 0; n < raw.size(); ++n) raw[n] = static_cast<char>(n * 7);
+  std::ofstream(dir / "data.raw", std::ios::binary)
+      .write(raw.data(), static_cast<std::streamsize>(raw.size()));
 }
 
 // fuzz_image_header, leak: an attached NRRD whose ASCII data stops one value short (7 of
@@ -273,15 +282,10 @@ TEST(FuzzRegressions, MhaWithADataFilePatternIsRefusedInsteadOfSigfpe) {
 // The header is refused before ITK reads it.
 TEST(FuzzRegressions, MhdWithAHugeNDimsIsRefusedInsteadOfSpinning) {
   TempDir tmp;
-  std::vector<char> raw(4096);
-  for (std::size_t n = 0; n < raw.size(); ++n) raw[n] = static_cast<char>(n * 7);
-  std::ofstream(tmp / "data.raw", std::ios::binary)
-      .write(raw.data(), static_cast<std::streamsize>(raw.size()));
-  const auto image = imageFromFinding(
-      tmp.path(), "timeout-c4af93032044a94b2ca30f3fe6e5476cf3ec5985", 3, "huge_ndims.mhd");
-  expectIngestRefused(tmp, image);
-  const auto [code, err] =
-      boundedCli({"ingest", image.string(), "-o", (tmp / "b.h5").string()}, tmp / "err2.txt", 60);
+  writeFuzzDataRaw(tmp.path());
+  const std::string err = expectIngestRefused(
+      tmp, imageFromFinding(tmp.path(), "timeout-c4af93032044a94b2ca30f3fe6e5476cf3ec5985", 3,
+                            "huge_ndims.mhd"));
   EXPECT_NE(err.find("NDims"), std::string::npos) << err;
 }
 
@@ -295,9 +299,7 @@ TEST(FuzzRegressions, MhdHugeNDimsInMetaIoSpellingsIsRefused) {
       "\fNDims = " + huge + "\n", "NDims = " + huge + "\nNDims = 3\n"};
   for (std::size_t k = 0; k < spellings.size(); ++k) {
     TempDir tmp;
-    std::vector<char> raw(4096, 1);
-    std::ofstream(tmp / "data.raw", std::ios::binary)
-        .write(raw.data(), static_cast<std::streamsize>(raw.size()));
+    writeFuzzDataRaw(tmp.path());
     const auto image = tmp / ("spelling" + std::to_string(k) + ".mhd");
     std::ofstream(image, std::ios::binary)
         << "ObjectType = Image\n"
