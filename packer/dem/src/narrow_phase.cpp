@@ -88,19 +88,39 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
     // A cylinder (most listed nodes lie outside it): a node is inside only when both its
     // axial and its radial distance are negative, and there the signed distance is the
     // larger of the two, the bits of analyticSignedDistanceMm (sqrt(0) + max(dr, dz)).
-    // The axial test first: no square root.
-    for (const std::uint32_t ni : list) {
-      const Vec3 pb = m * ta.nodeP[ni] + off;
-      const double dz = std::abs(pb.z()) - form.hl;
-      if (dz >= 0) continue;
-      const double rho = std::sqrt(pb.x() * pb.x() + pb.y() * pb.y());
-      const double dr = rho - form.r;
-      if (dr >= 0) continue;
-      // The shape's normal inside (FastSdfShape::normal, its bits): the nearer face.
-      const Vec3 nShape = dr > dz ? (rho > 0 ? Vec3(pb.x() / rho, pb.y() / rho, 0) : Vec3(1, 0, 0))
-                                  : Vec3(0, 0, pb.z() >= 0 ? 1 : -1);
-      const Hit h = nodeHit(ta, tb, ni, nShape, std::max(dr, dz), x[a], ra, rbS, factor, sign);
-      if (h.kw > 0) hits.push_back(h);
+    // Two passes over chunks of the list: a branch-free filter keeps the nodes that may be
+    // inside (axial distance negative, x^2 + y^2 below r^2 with a margin far above
+    // rounding), then the exact test runs on those alone. The filter's outcome is close to
+    // random per node, so as a branch it mispredicted; the square root is paid only for
+    // the kept nodes. The same nodes pass and in the same order: the same bits.
+    const double r2Margin = form.r * form.r * (1 + 1e-9);
+    constexpr std::size_t kChunk = 64;
+    std::uint32_t kept[kChunk];
+    for (std::size_t c0 = 0; c0 < list.size(); c0 += kChunk) {
+      const std::size_t c1 = std::min(list.size(), c0 + kChunk);
+      std::size_t nk = 0;
+      for (std::size_t li = c0; li < c1; ++li) {
+        const std::uint32_t ni = list[li];
+        const Vec3 pb = m * ta.nodeP[ni] + off;
+        const bool maybe =
+            (std::abs(pb.z()) - form.hl < 0) & (pb.x() * pb.x() + pb.y() * pb.y() < r2Margin);
+        kept[nk] = ni;
+        nk += maybe;
+      }
+      for (std::size_t kk = 0; kk < nk; ++kk) {
+        const std::uint32_t ni = kept[kk];
+        const Vec3 pb = m * ta.nodeP[ni] + off;
+        const double dz = std::abs(pb.z()) - form.hl;
+        const double rho = std::sqrt(pb.x() * pb.x() + pb.y() * pb.y());
+        const double dr = rho - form.r;
+        if (dr >= 0) continue;
+        // The shape's normal inside (FastSdfShape::normal, its bits): the nearer face.
+        const Vec3 nShape = dr > dz
+                                ? (rho > 0 ? Vec3(pb.x() / rho, pb.y() / rho, 0) : Vec3(1, 0, 0))
+                                : Vec3(0, 0, pb.z() >= 0 ? 1 : -1);
+        const Hit h = nodeHit(ta, tb, ni, nShape, std::max(dr, dz), x[a], ra, rbS, factor, sign);
+        if (h.kw > 0) hits.push_back(h);
+      }
     }
     return;
   }
