@@ -86,6 +86,12 @@ struct ContactLaw {
   static ContactLaw calibrated(double friction, double restitution);
 };
 
+/// A template's surface nodes (principal frame) in float, one array per axis: the vector
+/// loads of the listed-node filter (narrow_phase.cpp).
+struct NodeCoords {
+  std::vector<float> x, y, z;
+};
+
 /// Up to this many wall contact regions per particle (see DemContainer::wallRegion).
 inline constexpr int kWallRegions = 6;
 
@@ -150,6 +156,8 @@ struct DemSystem::Impl {
     double r = 0, hl = 0;
   };
   std::vector<Analytic> analytic;        // per template: DemShape::analyticForm
+  std::vector<NodeCoords> nodeCoords;    // per template
+  bool avx2 = false;                     // the CPU runs AVX2 (the filter's vector path)
   std::vector<std::uint8_t> closedForm;  // per template: sphere contacts in closed form
   std::vector<double> invMass;           // per template: 1 / mass
   std::vector<Vec3> invInertia;          // per template: 1 / principal moments
