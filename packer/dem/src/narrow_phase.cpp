@@ -1,75 +1,13 @@
 // The narrow phase: which surface nodes of one body lie inside the other (cluster walk and
 // node lists), and the closed-form overlap of two spheres.
-#include <immintrin.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
+#include "node_filter.hpp"
 #include "system_impl.hpp"
 
 namespace voxpack::packer::dem {
-namespace {
-
-// A listed-node pass's transform and cylinder bounds in float, the margins included.
-struct NodeFilter {
-  float m[9], off[3];
-  float hl, r2;
-};
-
-// Keeps, in list order, the nodes whose float image may lie inside the cylinder.
-std::size_t filterCylinder(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
-                           std::size_t n, std::uint32_t* kept) {
-  std::size_t nk = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const std::uint32_t ni = idx[i];
-    const float x = nc.x[ni], y = nc.y[ni], z = nc.z[ni];
-    const float px = f.m[0] * x + f.m[1] * y + f.m[2] * z + f.off[0];
-    const float py = f.m[3] * x + f.m[4] * y + f.m[5] * z + f.off[1];
-    const float pz = f.m[6] * x + f.m[7] * y + f.m[8] * z + f.off[2];
-    kept[nk] = ni;
-    nk += (std::abs(pz) < f.hl) & (px * px + py * py < f.r2);
-  }
-  return nk;
-}
-
-// The same, 8 nodes at a time (the same float arithmetic, so the same nodes).
-__attribute__((target("avx2"))) std::size_t filterCylinderAvx2(const NodeFilter& f,
-                                                               const NodeCoords& nc,
-                                                               const std::uint32_t* idx,
-                                                               std::size_t n, std::uint32_t* kept) {
-  __m256 m[9];
-  for (int k = 0; k < 9; ++k) m[k] = _mm256_set1_ps(f.m[k]);
-  const __m256 o0 = _mm256_set1_ps(f.off[0]), o1 = _mm256_set1_ps(f.off[1]),
-               o2 = _mm256_set1_ps(f.off[2]), hl = _mm256_set1_ps(f.hl), r2 = _mm256_set1_ps(f.r2),
-               sign = _mm256_set1_ps(-0.0f);
-  std::size_t nk = 0, i = 0;
-  for (; i + 8 <= n; i += 8) {
-    const __m256i vi = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx + i));
-    const __m256 x = _mm256_i32gather_ps(nc.x.data(), vi, 4);
-    const __m256 y = _mm256_i32gather_ps(nc.y.data(), vi, 4);
-    const __m256 z = _mm256_i32gather_ps(nc.z.data(), vi, 4);
-    // Each row in the scalar filter's order: ((m0 x + m1 y) + m2 z) + o.
-    __m256 p[3];
-    for (int r = 0; r < 3; ++r)
-      p[r] = _mm256_add_ps(
-          _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(m[3 * r], x), _mm256_mul_ps(m[3 * r + 1], y)),
-                        _mm256_mul_ps(m[3 * r + 2], z)),
-          r == 0 ? o0 : (r == 1 ? o1 : o2));
-    const __m256 px = p[0], py = p[1], pz = p[2];
-    const __m256 inZ = _mm256_cmp_ps(_mm256_andnot_ps(sign, pz), hl, _CMP_LT_OQ);
-    const __m256 rr = _mm256_add_ps(_mm256_mul_ps(px, px), _mm256_mul_ps(py, py));
-    const __m256 inR = _mm256_cmp_ps(rr, r2, _CMP_LT_OQ);
-    const unsigned bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_and_ps(inZ, inR)));
-    for (int b = 0; b < 8; ++b) {
-      kept[nk] = idx[i + static_cast<std::size_t>(b)];
-      nk += (bits >> b) & 1u;
-    }
-  }
-  return nk + filterCylinder(f, nc, idx + i, n - i, kept + nk);
-}
-
-}  // namespace
 
 // A penetrating node ni of a (b's outward normal nShape there, in b's shape frame) as a hit
 // on a; rbS maps b's shape frame to the world.
@@ -160,20 +98,13 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
     // and two thirds of the listed nodes fail it. The same nodes pass the exact test in
     // the same order as without the filter: the same bits.
     const double extent = ta.radiusMm + off.norm();
-    NodeFilter nf;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) nf.m[3 * r + c] = static_cast<float>(m(r, c));
-      nf.off[r] = static_cast<float>(off[r]);
-    }
-    nf.hl = static_cast<float>(form.hl + 3e-5 * extent);
-    nf.r2 = static_cast<float>(form.r * form.r + 3e-5 * extent * extent);
+    const NodeFilter nf = insideCylinderFilter(m, off, extent, form.r, form.hl);
     const NodeCoords& nc = nodeCoords[tid[a]];
     constexpr std::size_t kChunk = 64;
     std::uint32_t kept[kChunk];
     for (std::size_t c0 = 0; c0 < list.size(); c0 += kChunk) {
       const std::size_t c1 = std::min(list.size(), c0 + kChunk);
-      const std::size_t nk = avx2 ? filterCylinderAvx2(nf, nc, list.data() + c0, c1 - c0, kept)
-                                  : filterCylinder(nf, nc, list.data() + c0, c1 - c0, kept);
+      const std::size_t nk = filterNodes(nf, nc, list.data() + c0, c1 - c0, kept, avx2);
       for (std::size_t kk = 0; kk < nk; ++kk) {
         const std::uint32_t ni = kept[kk];
         const Vec3 pb = m * ta.nodeP[ni] + off;

@@ -1,0 +1,35 @@
+#pragma once
+// A branch-free float pre-test of listed surface nodes: which nodes may lie inside a
+// cylinder. Its margins make it keep a
+// superset of the nodes the exact double test accepts, so that test, run on the kept nodes
+// in list order, gives the same bits as without the filter (docs/dem.md, "The listed-node
+// filter").
+#include <cstddef>
+#include <cstdint>
+
+#include "system_impl.hpp"
+
+namespace voxpack::packer::dem {
+
+/// Margin of the filter as a fraction of the pose's extent S (the largest coordinate the
+/// transform can produce); the float error of a transformed node stays below 2e-6 S.
+inline constexpr double kFilterMargin = 3e-5;
+
+/// One filter pass: p = m node + off in float; kept when |p_z| < z and p_x^2 + p_y^2 < r2
+/// (the half length and the radius^2, margins added).
+struct NodeFilter {
+  float m[9] = {}, off[3] = {};
+  float z = 0, r2 = 0;
+};
+
+/// Nodes that may lie inside a cylinder (radius r, half length hl, axis z, centred at 0)
+/// after p = m node + off; extent bounds |p| (the pose's S).
+NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r,
+                                double hl);
+
+/// Writes to `kept`, in list order, the nodes of idx[0..n) the filter keeps; returns how
+/// many. `avx2`: 8 nodes per instruction (the same float arithmetic, so the same nodes).
+std::size_t filterNodes(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
+                        std::size_t n, std::uint32_t* kept, bool avx2);
+
+}  // namespace voxpack::packer::dem

@@ -1,0 +1,112 @@
+// The listed-node filter (packer/dem/src/node_filter.hpp) must keep every node the exact
+// double test accepts, in list order, and its AVX2 and scalar paths must keep the same
+// nodes: otherwise the filtered narrow phase would lose hits and change the bed.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "node_filter.hpp"
+
+namespace voxpack::packer::dem {
+namespace {
+
+struct Case {
+  Eigen::Matrix3d m;
+  Vec3 off;
+  std::vector<Vec3> nodes;  // principal frame
+  NodeCoords nc;
+};
+
+// Nodes in a ball of radius `ball`, half of them placed within 1e-9..1e-3 mm of `surface`
+// (given the transformed point, returns a nearby point on the boundary).
+template <class Surface>
+Case makeCase(std::mt19937_64& rng, double ball, double offMax, Surface surface) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  Case c;
+  c.m = Eigen::Quaterniond(u(rng), u(rng), u(rng), u(rng)).normalized().toRotationMatrix();
+  c.off = Vec3(u(rng), u(rng), u(rng)) * offMax;
+  for (int i = 0; i < 600; ++i) {
+    Vec3 p(u(rng), u(rng), u(rng));
+    p *= ball;
+    if (i % 2) {  // onto the boundary, then off it by a tiny signed step
+      const Vec3 pb = surface(c.m * p + c.off);
+      const double step = std::pow(10.0, -9 + 6 * (u(rng) + 1) / 2) * (u(rng) > 0 ? 1 : -1);
+      p = c.m.transpose() * (pb - c.off) + Vec3(step, -step, step);
+    }
+    c.nodes.push_back(p);
+    c.nc.x.push_back(static_cast<float>(p.x()));
+    c.nc.y.push_back(static_cast<float>(p.y()));
+    c.nc.z.push_back(static_cast<float>(p.z()));
+  }
+  return c;
+}
+
+// Checks the filter against the exact test on lists of every length 0..40 (tails of the
+// 8-lane batches) and on the whole node set.
+template <class Exact>
+void checkSuperset(const Case& c, const NodeFilter& f, Exact exact, int& exactHits) {
+  std::vector<std::uint32_t> all(c.nodes.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  std::vector<std::size_t> lengths;
+  for (std::size_t n = 0; n <= 40; ++n) lengths.push_back(n);
+  lengths.push_back(all.size());
+  for (std::size_t start : {std::size_t{0}, std::size_t{5}})
+    for (std::size_t n : lengths) {
+      if (start + n > all.size()) continue;
+      const std::uint32_t* idx = all.data() + start;
+      std::vector<std::uint32_t> scalar(n + 1), vector(n + 1);
+      const std::size_t ns = filterNodes(f, c.nc, idx, n, scalar.data(), false);
+      scalar.resize(ns);
+      if (__builtin_cpu_supports("avx2")) {
+        const std::size_t nv = filterNodes(f, c.nc, idx, n, vector.data(), true);
+        vector.resize(nv);
+        ASSERT_EQ(scalar, vector) << "AVX2 and scalar paths kept different nodes";
+      }
+      ASSERT_TRUE(std::is_sorted(scalar.begin(), scalar.end())) << "list order lost";
+      for (std::size_t k = 0; k < n; ++k) {
+        const std::uint32_t ni = idx[k];
+        if (!exact(c.m * c.nodes[ni] + c.off)) continue;
+        if (n == all.size()) ++exactHits;
+        ASSERT_TRUE(std::binary_search(scalar.begin(), scalar.end(), ni))
+            << "node " << ni << " passes the exact test but was filtered out: p "
+            << (c.m * c.nodes[ni] + c.off).transpose() << " f.z " << f.z << " f.r2 " << f.r2
+            << " off " << c.off.transpose();
+      }
+    }
+}
+
+TEST(NodeFilter, KeepsEveryNodeInsideACylinderInListOrder) {
+  std::mt19937_64 rng(7);
+  const double r = 2.7, hl = 1.9;
+  int exactHits = 0, kept = 0;
+  for (int t = 0; t < 20; ++t) {
+    const Case c = makeCase(rng, 3.3, 6.0, [&](const Vec3& p) -> Vec3 {
+      const double rho = std::hypot(p.x(), p.y());
+      // The nearer of the round side and the flat ends.
+      if (std::abs(std::abs(p.z()) - hl) < std::abs(rho - r) || rho == 0)
+        return Vec3(p.x(), p.y(), std::copysign(hl, p.z()));
+      return Vec3(p.x() * r / rho, p.y() * r / rho, p.z());
+    });
+    const double extent = 3.3 * std::sqrt(3.0) + c.off.norm();
+    const NodeFilter f = insideCylinderFilter(c.m, c.off, extent, r, hl);
+    checkSuperset(
+        c, f,
+        [&](const Vec3& p) {  // narrow_phase.cpp's exact test
+          return std::abs(p.z()) - hl < 0 && std::sqrt(p.x() * p.x() + p.y() * p.y()) - r < 0;
+        },
+        exactHits);
+    std::vector<std::uint32_t> all(c.nodes.size()), out(c.nodes.size());
+    for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+    kept += static_cast<int>(filterNodes(f, c.nc, all.data(), all.size(), out.data(), false));
+  }
+  EXPECT_GT(exactHits, 300);  // the cases do reach inside
+  // A filter that kept everything would pass the superset test too: it must also reject.
+  EXPECT_LT(kept, 20 * 600 * 9 / 10);
+}
+
+}  // namespace
+}  // namespace voxpack::packer::dem
