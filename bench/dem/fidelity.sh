@@ -8,8 +8,9 @@
 #          top, g(r) from the centres (bench/dem/bed_structure.py). RCP_ARGS (environment)
 #          adds pack options to both beds and RCP_TAG a suffix to their names, e.g.
 #          RCP_ARGS="--target-overlap 0.001" RCP_TAG=_t0001; RCP_CONTAINER replaces the
-#          container (a taller one for --rain-height 0, whose single cloud is ~130 mm). Every bed also gets its
-#          crystal-like fraction (bench/dem/crystal_order.py); KEEP_BEDS=1 keeps the bed files.
+#          container (a taller one for --rain-height 0, whose single cloud is ~130 mm).
+#          Every bed also gets its crystal-like fraction (bench/dem/crystal_order.py);
+#          KEEP_BEDS=1 keeps the bed files.
 # voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
 #          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
@@ -71,8 +72,8 @@ PY
 
 if [[ $which == rcp || $which == rcp-poured || $which == all ]]; then
   # 5000 spheres of 14.14 mm^3 at ~0.62 fill ~63 mm of a 48 mm column.
-  common=(--shape sphere:d=3 --container "${RCP_CONTAINER:-cylinder:d=48,h=110}" --voxel-size 0.3 --count 5000
-    --friction 0 --restitution 0.5 --max-time 8)
+  common=(--shape sphere:d=3 --container "${RCP_CONTAINER:-cylinder:d=48,h=110}"
+    --voxel-size 0.3 --count 5000 --friction 0 --restitution 0.5 --max-time 8)
   read -r -a extra <<<"${RCP_ARGS:-}"
   run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
   [[ $which == rcp-poured ]] || run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5

@@ -38,10 +38,8 @@ Case makeCase(std::mt19937_64& rng, double ball, double offMax, Surface surface)
       p = c.m.transpose() * (pb - c.off) + Vec3(step, -step, step);
     }
     c.nodes.push_back(p);
-    c.nc.x.push_back(static_cast<float>(p.x()));
-    c.nc.y.push_back(static_cast<float>(p.y()));
-    c.nc.z.push_back(static_cast<float>(p.z()));
   }
+  c.nc = nodeCoordsOf(c.nodes);
   return c;
 }
 

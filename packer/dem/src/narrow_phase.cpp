@@ -90,13 +90,11 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
     // A cylinder (most listed nodes lie outside it): a node is inside only when both its
     // axial and its radial distance are negative, and there the signed distance is the
     // larger of the two, the bits of analyticSignedDistanceMm (sqrt(0) + max(dr, dz)).
-    // Two passes over chunks of the list: a branch-free filter in float (8 nodes per AVX2
-    // instruction where the CPU has it) keeps the nodes that may be inside, with margins
-    // (3e-5 of the pose's extent S, against a float error below 2e-6 S) that make it a
-    // superset of the exact answer; then the exact test, in double, runs on those alone.
-    // The filter's outcome is close to random per node, so as a branch it mispredicted,
-    // and two thirds of the listed nodes fail it. The same nodes pass the exact test in
-    // the same order as without the filter: the same bits.
+    // Two passes over chunks of the list: the float filter (node_filter.hpp) keeps a
+    // superset of the nodes that may be inside, then the exact test, in double, runs on
+    // those alone. Two thirds of the listed nodes fail the filter, and as a branch its
+    // outcome mispredicted. The same nodes pass the exact test in the same order as
+    // without the filter: the same bits.
     const double extent = ta.radiusMm + off.norm();
     const NodeFilter nf = insideCylinderFilter(m, off, extent, form.r, form.hl);
     const NodeCoords& nc = nodeCoords[tid[a]];

@@ -69,6 +69,16 @@ __attribute__((target("avx2"))) std::size_t filterAvx2(const NodeFilter& f, cons
 
 }  // namespace
 
+NodeCoords nodeCoordsOf(const std::vector<Vec3>& nodes) {
+  NodeCoords nc;
+  for (const Vec3& p : nodes) {
+    nc.x.push_back(static_cast<float>(p.x()));
+    nc.y.push_back(static_cast<float>(p.y()));
+    nc.z.push_back(static_cast<float>(p.z()));
+  }
+  return nc;
+}
+
 NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r,
                                 double hl) {
   NodeFilter f;

@@ -1,11 +1,11 @@
 #pragma once
 // A branch-free float pre-test of listed surface nodes: which nodes may lie inside a
-// cylinder. Its margins make it keep a
-// superset of the nodes the exact double test accepts, so that test, run on the kept nodes
-// in list order, gives the same bits as without the filter (docs/dem.md, "The listed-node
-// filter").
+// cylinder. Its margins make it keep a superset of the nodes the exact double test accepts,
+// so that test, run on the kept nodes in list order, gives the same bits as without the
+// filter (docs/dem.md, "The listed-node filter").
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "system_impl.hpp"
 
@@ -21,6 +21,9 @@ struct NodeFilter {
   float m[9] = {}, off[3] = {};
   float z = 0, r2 = 0;
 };
+
+/// The nodes' coordinates in float, one array per axis.
+NodeCoords nodeCoordsOf(const std::vector<Vec3>& nodes);
 
 /// Nodes that may lie inside a cylinder (radius r, half length hl, axis z, centred at 0)
 /// after p = m node + off; extent bounds |p| (the pose's S).

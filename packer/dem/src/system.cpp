@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "node_filter.hpp"
 #include "system_impl.hpp"
 #include "voxpack/core/errors.hpp"
 
@@ -119,13 +120,7 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
     impl_->closedForm.push_back(a.form == 1 && o.contact == ContactModel::kLevelSet ? 1 : 0);
     impl_->invMass.push_back(1.0 / tp.massG);
     impl_->invInertia.push_back(tp.inertiaG.cwiseInverse());
-    NodeCoords nc;
-    for (const Vec3& p : tp.nodeP) {
-      nc.x.push_back(static_cast<float>(p.x()));
-      nc.y.push_back(static_cast<float>(p.y()));
-      nc.z.push_back(static_cast<float>(p.z()));
-    }
-    impl_->nodeCoords.push_back(std::move(nc));
+    impl_->nodeCoords.push_back(nodeCoordsOf(tp.nodeP));
   }
   impl_->avx2 = __builtin_cpu_supports("avx2");
 }
