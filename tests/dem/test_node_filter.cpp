@@ -56,11 +56,15 @@ void checkSuperset(const Case& c, const NodeFilter& f, Exact exact, int& exactHi
     for (std::size_t n : lengths) {
       if (start + n > all.size()) continue;
       const std::uint32_t* idx = all.data() + start;
-      std::vector<std::uint32_t> scalar(n + 1), vector(n + 1);
+      // Room for whole batches (n rounded up to 8), and a guard word after it.
+      const std::size_t room = (n + 7) / 8 * 8;
+      std::vector<std::uint32_t> scalar(room + 1, 0xdeadbeef), vector(room + 1, 0xdeadbeef);
       const std::size_t ns = filterNodes(f, c.nc, idx, n, scalar.data(), false);
+      ASSERT_EQ(scalar[room], 0xdeadbeefu);
       scalar.resize(ns);
       if (__builtin_cpu_supports("avx2")) {
         const std::size_t nv = filterNodes(f, c.nc, idx, n, vector.data(), true);
+        ASSERT_EQ(vector[room], 0xdeadbeefu) << "the vector path wrote past its room";
         vector.resize(nv);
         ASSERT_EQ(scalar, vector) << "AVX2 and scalar paths kept different nodes";
       }
@@ -97,7 +101,7 @@ TEST(NodeFilter, KeepsEveryNodeInsideACylinderInListOrder) {
           return std::abs(p.z()) - hl < 0 && std::sqrt(p.x() * p.x() + p.y() * p.y()) - r < 0;
         },
         exactHits);
-    std::vector<std::uint32_t> all(c.nodes.size()), out(c.nodes.size());
+    std::vector<std::uint32_t> all(c.nodes.size()), out(c.nodes.size() + 8);
     for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
     kept += static_cast<int>(filterNodes(f, c.nc, all.data(), all.size(), out.data(), false));
   }

@@ -98,7 +98,7 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
     const double extent = ta.radiusMm + off.norm();
     const NodeFilter nf = insideCylinderFilter(m, off, extent, form.r, form.hl);
     const NodeCoords& nc = nodeCoords[tid[a]];
-    constexpr std::size_t kChunk = 64;
+    constexpr std::size_t kChunk = 64;  // a multiple of 8: the filter stores whole batches
     std::uint32_t kept[kChunk];
     for (std::size_t c0 = 0; c0 < list.size(); c0 += kChunk) {
       const std::size_t c1 = std::min(list.size(), c0 + kChunk);

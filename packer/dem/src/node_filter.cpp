@@ -28,9 +28,26 @@ std::size_t filterScalar(const NodeFilter& f, const NodeCoords& nc, const std::u
   return nk;
 }
 
-__attribute__((target("avx2"))) std::size_t filterAvx2(const NodeFilter& f, const NodeCoords& nc,
-                                                       const std::uint32_t* idx, std::size_t n,
-                                                       std::uint32_t* kept) {
+// For each 8-bit keep mask, the kept lanes in order, one byte each: a batch's kept indices
+// are one permute and one store (AVX2 has no compress instruction).
+struct CompressTable {
+  std::uint64_t lanes[256];
+  constexpr CompressTable() : lanes() {
+    for (unsigned bits = 0; bits < 256; ++bits) {
+      std::uint64_t packed = 0;
+      unsigned at = 0;
+      for (unsigned b = 0; b < 8; ++b)
+        if (bits >> b & 1u) packed |= std::uint64_t{b} << (8 * at++);
+      lanes[bits] = packed;
+    }
+  }
+};
+constexpr CompressTable kCompress;
+
+__attribute__((target("avx2,popcnt"))) std::size_t filterAvx2(const NodeFilter& f,
+                                                              const NodeCoords& nc,
+                                                              const std::uint32_t* idx,
+                                                              std::size_t n, std::uint32_t* kept) {
   __m256 m[9];
   for (int k = 0; k < 9; ++k) m[k] = _mm256_set1_ps(f.m[k]);
   const __m256 o[3] = {_mm256_set1_ps(f.off[0]), _mm256_set1_ps(f.off[1]),
@@ -59,10 +76,12 @@ __attribute__((target("avx2"))) std::size_t filterAvx2(const NodeFilter& f, cons
     const __m256 keep = _mm256_and_ps(_mm256_cmp_ps(_mm256_andnot_ps(sign, p[2]), zb, _CMP_LT_OQ),
                                       _mm256_cmp_ps(rr, r2, _CMP_LT_OQ));
     const unsigned bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_and_ps(keep, onPs)));
-    for (int b = 0; b < rem; ++b) {
-      kept[nk] = idx[i + static_cast<std::size_t>(b)];
-      nk += (bits >> b) & 1u;
-    }
+    const __m256i perm =
+        _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(static_cast<long long>(kCompress.lanes[bits])));
+    // Writes 8 lanes at kept + nk (nk <= i): within n rounded up to a multiple of 8.
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(kept + nk),
+                        _mm256_permutevar8x32_epi32(vi, perm));
+    nk += static_cast<std::size_t>(__builtin_popcount(bits));
   }
   return nk;
 }

@@ -31,7 +31,8 @@ NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, doubl
                                 double hl);
 
 /// Writes to `kept`, in list order, the nodes of idx[0..n) the filter keeps; returns how
-/// many. `avx2`: 8 nodes per instruction (the same float arithmetic, so the same nodes).
+/// many. `kept` has room for n rounded up to a multiple of 8 (the vector path stores whole
+/// batches). `avx2`: 8 nodes per instruction (the same float arithmetic, so the same nodes).
 std::size_t filterNodes(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
                         std::size_t n, std::uint32_t* kept, bool avx2);
 
