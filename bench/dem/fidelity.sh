@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # DEM fidelity beyond the paper (docs/dem.md "Random close packing", "Mean voidage against
 # Benyahia & O'Neill"). Not run by ctest: each bed takes minutes.
-#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR [rcp|rcp-poured|voidage|voidage-cylinders|all]
+#   bench/dem/fidelity.sh BUILD_DIR OUT_DIR
+#                         [rcp|rcp-poured|rcp-continue|voidage|voidage-cylinders|all]
 #                         [THREADS] [SEED] [FRICTIONS]
 # rcp:     5000 frictionless spheres d 3 mm in a 48 mm column (D/d 16), e 0.5, 0.3 mm
 #          voxels, poured, and poured + 5 taps; bulk voxel density >= 3 d from wall, floor and
@@ -11,6 +12,10 @@
 #          container (a taller one for --rain-height 0, whose single cloud is ~130 mm).
 #          Every bed also gets its crystal-like fraction (bench/dem/crystal_order.py);
 #          KEEP_BEDS=1 keeps the bed files.
+# rcp-continue: continues a kept rcp bed, RCP_FROM=BED.h5 (--from: every sphere at rest at
+#          its pose, no contact springs), frictionless, e 0.5, with RCP_ARGS (e.g.
+#          "--target-overlap 0.0001": the rigid limit of that packing); also measures its
+#          bulk three ways (bench/dem/bulk_exact.py). Not part of `all`.
 # voidage: spheres d 3 mm at D/d 3, 5, 8, 12 and 20, poured at each of FRICTIONS (default
 #          "0.1 0.2 0.3"), e 0.5, 0.3 mm, each bed ~10-30 d deep; mean voidage between 2 d
 #          above the floor and 2 d below the top against eps = 0.390 + 1.740 / (D/d + 1.140)^2.
@@ -78,6 +83,23 @@ if [[ $which == rcp || $which == rcp-poured || $which == all ]]; then
   run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
   [[ $which == rcp-poured ]] || run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
 fi
+if [[ $which == rcp-continue ]]; then
+  read -r -a extra <<<"${RCP_ARGS:-}"
+  keep=${KEEP_BEDS:-}
+  KEEP_BEDS=1 run "rcp_continued${RCP_TAG:-}" 3 --from "${RCP_FROM:?RCP_FROM=BED.h5}" \
+    --friction 0 --restitution 0.5 --max-time 8 "${extra[@]}"
+  name="rcp_continued${RCP_TAG:-}"
+  /usr/bin/python3 "$here/bulk_exact.py" "$out/$name.h5" 3 >"$out/$name.exact.json"
+  /usr/bin/python3 - "$out/$name.json" "$out/$name.exact.json" <<'PY'
+import json, sys
+res = json.load(open(sys.argv[1]))
+res["bulk_exact"] = json.load(open(sys.argv[2]))
+json.dump(res, open(sys.argv[1], "w"), indent=1)
+print(f"{res['name']}: bulk phi voxels {res['bulk_exact']['phi_voxels']:.4f}, exact spheres "
+      f"{res['bulk_exact']['phi_union']:.4f} +- {res['bulk_exact']['phi_union_se']:.4f}")
+PY
+  [[ -n $keep ]] || rm -f "$out/$name.h5"
+fi
 # One poured bed per D/d and friction: PREFIX D_MM VOLUME_MM3 VOXEL_MM SHAPE "D/d:COUNT ...".
 # The container holds the pour: its height is the settled bed (solid ~0.55) x 1.4 + 30 mm.
 voidage_sweep() {
@@ -108,7 +130,7 @@ import glob, json, sys
 out = sys.argv[1]
 rows = [json.load(open(p)) for p in sorted(glob.glob(f"{out}/*.json"))
         if not p.endswith((".info.json", ".density.json", ".structure.json", ".crystal.json",
-                              "dem_fidelity.json"))]
+                              ".exact.json", "dem_fidelity.json"))]
 for r in rows:
     if r["name"].startswith("voidage"):
         nominal = float(r["name"].split("_r")[1].split("_")[0])
