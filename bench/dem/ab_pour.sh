@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # Two voxpack binaries on the peer cylinder scene (peer_compare.sh: samples/paper_dem.toml,
 # one cloud at 0.15, --settle-speed 0, seed 1), THREADS (default 1) threads, full pour,
-# alternated A B A B...
-# so that this VM's drift (+-10 % within minutes) falls on both. Copy the binaries out of
+# alternated A B A B... so that this VM's drift (+-10 % within minutes) falls on both. Copy the binaries out of
 # the build first. Checks that both beds have the same particle table (a speed change must
 # not change the bed). Raw JSON to OUT/dem_ab_pour.json.
 #   bench/dem/ab_pour.sh BIN_A BIN_B OUT_DIR [REPS=2] [EXTRA PACK ARGS...]
@@ -14,9 +13,8 @@ b=${2:?binary B}
 out=${3:?output dir}
 reps=${4:-2}
 shift $(($# < 4 ? $# : 4))
-digest="$root/build/bin/dem_bed_digest"
-[[ -x ${DIGEST:-$digest} ]] || { echo "error: build dem_bed_digest (or set DIGEST)" >&2; exit 2; }
-digest=${DIGEST:-$digest}
+digest=${DIGEST:-$root/build/bin/dem_bed_digest}
+[[ -x $digest ]] || { echo "error: build dem_bed_digest (or set DIGEST)" >&2; exit 2; }
 threads=${THREADS:-1}
 mkdir -p "$out"
 rows=()

@@ -165,7 +165,7 @@ void DemSystem::Impl::computeForces(double kick) {
     for (std::int64_t k = 0; k < np; ++k) {
       const std::size_t pi = pairAt(k);
       if (k + kPairPrefetch < np) {
-        // Each pair's node lists are short (~20 nodes) heap blocks: the first touch of one
+        // Each pair's node lists are short (~21 nodes) heap blocks: the first touch of one
         // misses every cache, and the hardware prefetcher cannot guess the next block.
         const NodeList& ahead = pairs[pairAt(k + kPairPrefetch)].nodes;
         __builtin_prefetch(ahead.a.data());
