@@ -23,12 +23,13 @@ struct Case {
 
 // Nodes in a ball of radius `ball`, half of them placed within 1e-9..1e-3 mm of `surface`
 // (given the transformed point, returns a nearby point on the boundary).
-template <class Surface>
-Case makeCase(std::mt19937_64& rng, double ball, double offMax, Surface surface) {
+// `offset` draws the translation.
+template <class Offset, class Surface>
+Case makeCaseAt(std::mt19937_64& rng, double ball, Offset offset, Surface surface) {
   std::uniform_real_distribution<double> u(-1, 1);
   Case c;
   c.m = Eigen::Quaterniond(u(rng), u(rng), u(rng), u(rng)).normalized().toRotationMatrix();
-  c.off = Vec3(u(rng), u(rng), u(rng)) * offMax;
+  c.off = offset(rng);
   for (int i = 0; i < 600; ++i) {
     Vec3 p(u(rng), u(rng), u(rng));
     p *= ball;
@@ -41,6 +42,18 @@ Case makeCase(std::mt19937_64& rng, double ball, double offMax, Surface surface)
   }
   c.nc = nodeCoordsOf(c.nodes);
   return c;
+}
+
+template <class Surface>
+Case makeCase(std::mt19937_64& rng, double ball, double offMax, Surface surface) {
+  return makeCaseAt(
+      rng, ball,
+      [&](std::mt19937_64& g) -> Vec3 {
+        std::uniform_real_distribution<double> u(-1, 1);
+        const double a = u(g), b = u(g), z = u(g);
+        return Vec3(a, b, z) * offMax;
+      },
+      surface);
 }
 
 // Checks the filter against the exact test on lists of every length 0..40 (tails of the
@@ -81,6 +94,14 @@ void checkSuperset(const Case& c, const NodeFilter& f, Exact exact, int& exactHi
     }
 }
 
+// How many of the case's nodes the filter keeps (a filter that kept everything would pass
+// the superset test too: it must also reject).
+int keptOfAll(const Case& c, const NodeFilter& f) {
+  std::vector<std::uint32_t> all(c.nodes.size()), out(c.nodes.size() + 8);
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  return static_cast<int>(filterNodes(f, c.nc, all.data(), all.size(), out.data(), false));
+}
+
 TEST(NodeFilter, KeepsEveryNodeInsideACylinderInListOrder) {
   std::mt19937_64 rng(7);
   const double r = 2.7, hl = 1.9;
@@ -101,12 +122,43 @@ TEST(NodeFilter, KeepsEveryNodeInsideACylinderInListOrder) {
           return std::abs(p.z()) - hl < 0 && std::sqrt(p.x() * p.x() + p.y() * p.y()) - r < 0;
         },
         exactHits);
-    std::vector<std::uint32_t> all(c.nodes.size()), out(c.nodes.size() + 8);
-    for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-    kept += static_cast<int>(filterNodes(f, c.nc, all.data(), all.size(), out.data(), false));
+    kept += keptOfAll(c, f);
   }
   EXPECT_GT(exactHits, 300);  // the cases do reach inside
-  // A filter that kept everything would pass the superset test too: it must also reject.
+  EXPECT_LT(kept, 20 * 600 * 9 / 10);
+}
+
+// The column's filter (walls.cpp): a particle near the round wall or the floor of a column of
+// radius 24 mm, low in the bed or far up it (a large extent, so larger float errors).
+TEST(NodeFilter, KeepsEveryNodeOutsideAColumnInListOrder) {
+  std::mt19937_64 rng(11);
+  const double radius = 24.0;
+  int exactHits = 0, kept = 0;
+  for (int t = 0; t < 20; ++t) {
+    const double height = t % 4 == 3 ? 240.0 : 0.0;  // far up: the floor is out of reach
+    const Case c = makeCaseAt(
+        rng, 3.3,
+        [&](std::mt19937_64& g) -> Vec3 {
+          std::uniform_real_distribution<double> u(0, 1);
+          const double rho = radius - 4.0 * u(g), angle = 6.283185307179586 * u(g);
+          return Vec3(rho * std::cos(angle), rho * std::sin(angle), height + 4.0 * u(g));
+        },
+        [&](const Vec3& p) -> Vec3 {
+          const double rho = std::hypot(p.x(), p.y());
+          if (std::abs(p.z()) < std::abs(radius - rho)) return Vec3(p.x(), p.y(), 0.0);
+          return Vec3(p.x() * radius / rho, p.y() * radius / rho, p.z());
+        });
+    const double extent = 3.3 * std::sqrt(3.0) + c.off.norm();
+    const NodeFilter f = outsideColumnFilter(c.m, c.off, extent, radius);
+    checkSuperset(
+        c, f,
+        [&](const Vec3& p) {  // the column's wallDistanceMm < 0
+          return std::min(radius - std::sqrt(p.x() * p.x() + p.y() * p.y()), p.z()) < 0;
+        },
+        exactHits);
+    kept += keptOfAll(c, f);
+  }
+  EXPECT_GT(exactHits, 300);  // the cases do reach outside
   EXPECT_LT(kept, 20 * 600 * 9 / 10);
 }
 

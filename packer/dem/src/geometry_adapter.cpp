@@ -112,6 +112,14 @@ class OpenTopContainer final : public DemContainer {
     add(p.z() - b_.min.z(), Vec3(0, 0, 1), 5);
     return n;
   }
+  bool uprightColumn(double& cx, double& cy, double& r, double& floorZ) const override {
+    if (!cylinder_) return false;
+    cx = cx_;
+    cy = cy_;
+    r = r_;
+    floorZ = b_.min.z();
+    return true;
+  }
   Vec3 minMm() const override { return b_.min; }
   Vec3 maxMm() const override { return b_.max; }
 

@@ -12,6 +12,8 @@
 namespace voxpack::packer::dem {
 namespace {
 
+// The filter's test on one node or batch: inside a particle, or outside the column.
+template <bool Outside>
 std::size_t filterScalar(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
                          std::size_t n, std::uint32_t* kept) {
   std::size_t nk = 0;
@@ -23,7 +25,10 @@ std::size_t filterScalar(const NodeFilter& f, const NodeCoords& nc, const std::u
     const float pz = f.m[6] * x + f.m[7] * y + f.m[8] * z + f.off[2];
     const float rr = px * px + py * py;
     kept[nk] = ni;
-    nk += (std::abs(pz) < f.z) & (rr < f.r2);
+    if constexpr (Outside)
+      nk += (pz < f.z) | (rr > f.r2);
+    else
+      nk += (std::abs(pz) < f.z) & (rr < f.r2);
   }
   return nk;
 }
@@ -44,6 +49,7 @@ struct CompressTable {
 };
 constexpr CompressTable kCompress;
 
+template <bool Outside>
 __attribute__((target("avx2,popcnt"))) std::size_t filterAvx2(const NodeFilter& f,
                                                               const NodeCoords& nc,
                                                               const std::uint32_t* idx,
@@ -73,8 +79,12 @@ __attribute__((target("avx2,popcnt"))) std::size_t filterAvx2(const NodeFilter& 
                         _mm256_mul_ps(m[3 * r + 2], z)),
           o[r]);
     const __m256 rr = _mm256_add_ps(_mm256_mul_ps(p[0], p[0]), _mm256_mul_ps(p[1], p[1]));
-    const __m256 keep = _mm256_and_ps(_mm256_cmp_ps(_mm256_andnot_ps(sign, p[2]), zb, _CMP_LT_OQ),
-                                      _mm256_cmp_ps(rr, r2, _CMP_LT_OQ));
+    __m256 keep;
+    if constexpr (Outside)
+      keep = _mm256_or_ps(_mm256_cmp_ps(p[2], zb, _CMP_LT_OQ), _mm256_cmp_ps(rr, r2, _CMP_GT_OQ));
+    else
+      keep = _mm256_and_ps(_mm256_cmp_ps(_mm256_andnot_ps(sign, p[2]), zb, _CMP_LT_OQ),
+                           _mm256_cmp_ps(rr, r2, _CMP_LT_OQ));
     const unsigned bits = static_cast<unsigned>(_mm256_movemask_ps(_mm256_and_ps(keep, onPs)));
     const __m256i perm =
         _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(static_cast<long long>(kCompress.lanes[bits])));
@@ -110,9 +120,23 @@ NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, doubl
   return f;
 }
 
+NodeFilter outsideColumnFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r) {
+  NodeFilter f;
+  for (int i = 0; i < 3; ++i) {
+    for (int c = 0; c < 3; ++c) f.m[3 * i + c] = static_cast<float>(m(i, c));
+    f.off[i] = static_cast<float>(off[i]);
+  }
+  f.z = static_cast<float>(kFilterMargin * extent);
+  f.r2 = static_cast<float>(r * r - kFilterMargin * extent * extent);
+  f.outside = true;
+  return f;
+}
+
 std::size_t filterNodes(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
                         std::size_t n, std::uint32_t* kept, bool avx2) {
-  return avx2 ? filterAvx2(f, nc, idx, n, kept) : filterScalar(f, nc, idx, n, kept);
+  if (f.outside)
+    return avx2 ? filterAvx2<true>(f, nc, idx, n, kept) : filterScalar<true>(f, nc, idx, n, kept);
+  return avx2 ? filterAvx2<false>(f, nc, idx, n, kept) : filterScalar<false>(f, nc, idx, n, kept);
 }
 
 }  // namespace voxpack::packer::dem

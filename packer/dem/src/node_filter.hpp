@@ -1,8 +1,9 @@
 #pragma once
 // A branch-free float pre-test of listed surface nodes: which nodes may lie inside a
-// cylinder. Its margins make it keep a superset of the nodes the exact double test accepts,
-// so that test, run on the kept nodes in list order, gives the same bits as without the
-// filter (docs/dem.md, "The listed-node filter").
+// cylinder (another particle), or outside an upright one or below its floor (the column). Its
+// margins make it keep a superset of the nodes the exact double test accepts, so that test, run on
+// the kept nodes in list order, gives the same bits as without the filter (docs/dem.md, "The
+// listed-node filter").
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -16,10 +17,12 @@ namespace voxpack::packer::dem {
 inline constexpr double kFilterMargin = 3e-5;
 
 /// One filter pass: p = m node + off in float; kept when |p_z| < z and p_x^2 + p_y^2 < r2
-/// (the half length and the radius^2, margins added).
+/// (the half length and the radius^2, margins added), or, for a column (`outside`), when
+/// p_z < z or p_x^2 + p_y^2 > r2 (the floor and the radius^2, margins taken off).
 struct NodeFilter {
   float m[9] = {}, off[3] = {};
   float z = 0, r2 = 0;
+  bool outside = false;
 };
 
 /// The nodes' coordinates in float, one array per axis.
@@ -29,6 +32,10 @@ NodeCoords nodeCoordsOf(const std::vector<Vec3>& nodes);
 /// after p = m node + off; extent bounds |p| (the pose's S).
 NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r,
                                 double hl);
+
+/// Nodes that may lie outside an upright column (radius r, axis z through 0) or below its
+/// floor (z = 0) after p = m node + off; extent bounds |p|.
+NodeFilter outsideColumnFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r);
 
 /// Writes to `kept`, in list order, the nodes of idx[0..n) the filter keeps; returns how
 /// many. `kept` has room for n rounded up to a multiple of 8 (the vector path stores whole

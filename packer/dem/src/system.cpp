@@ -123,6 +123,8 @@ DemSystem::DemSystem(std::vector<ParticleTemplate> templates,
     impl_->nodeCoords.push_back(nodeCoordsOf(tp.nodeP));
   }
   impl_->avx2 = __builtin_cpu_supports("avx2");
+  Impl::Column& col = impl_->column;
+  col.on = impl_->container->uprightColumn(col.cx, col.cy, col.r, col.floorZ);
 }
 
 DemSystem::~DemSystem() = default;

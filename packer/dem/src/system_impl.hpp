@@ -155,9 +155,15 @@ struct DemSystem::Impl {
     int form = 0;
     double r = 0, hl = 0;
   };
-  std::vector<Analytic> analytic;        // per template: DemShape::analyticForm
-  std::vector<NodeCoords> nodeCoords;    // per template
-  bool avx2 = false;                     // the CPU runs AVX2 (the filter's vector path)
+  std::vector<Analytic> analytic;      // per template: DemShape::analyticForm
+  std::vector<NodeCoords> nodeCoords;  // per template
+  bool avx2 = false;                   // the CPU runs AVX2 (the filter's vector path)
+  // The container as an upright column (DemContainer::uprightColumn): its wall nodes go
+  // through the float filter first.
+  struct Column {
+    bool on = false;
+    double cx = 0, cy = 0, r = 0, floorZ = 0;
+  } column;
   std::vector<std::uint8_t> closedForm;  // per template: sphere contacts in closed form
   std::vector<double> invMass;           // per template: 1 / mass
   std::vector<Vec3> invInertia;          // per template: 1 / principal moments

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "node_filter.hpp"
 #include "system_impl.hpp"
 
 namespace voxpack::packer::dem {
@@ -84,7 +85,26 @@ void DemSystem::Impl::wallForces(std::size_t i, double zw, double vw,
       }
       if (h.kw > 0) hits[region].push_back(h);
     };
-    if (fresh) {
+    if (fresh && column.on) {
+      // Most listed nodes are inside the column, within the skin: the float filter
+      // (node_filter.hpp) keeps a superset of those outside it or below the floor, and the
+      // exact test runs on those alone, in list order, so the hits are the same bits.
+      evals += wl.nodes.size();
+      const Vec3 off = x[i] - Vec3(column.cx, column.cy, column.floorZ + zw);
+      const NodeFilter nf = outsideColumnFilter(r, off, tp.radiusMm + off.norm(), column.r);
+      const NodeCoords& nc = nodeCoords[tid[i]];
+      constexpr std::size_t kChunk = 64;  // a multiple of 8: the filter stores whole batches
+      std::uint32_t kept[kChunk];
+      for (std::size_t c0 = 0; c0 < wl.nodes.size(); c0 += kChunk) {
+        const std::size_t c1 = std::min(wl.nodes.size(), c0 + kChunk);
+        const std::size_t nk = filterNodes(nf, nc, wl.nodes.data() + c0, c1 - c0, kept, avx2);
+        for (std::size_t kk = 0; kk < nk; ++kk) {
+          const Vec3 p = x[i] + r * tp.nodeP[kept[kk]];
+          const double s = container->wallDistanceMm(p - wallShift);
+          if (s < 0) probe(kept[kk], p, s);
+        }
+      }
+    } else if (fresh) {
       evals += wl.nodes.size();
       for (const std::uint32_t ni : wl.nodes) {
         const Vec3 p = x[i] + r * tp.nodeP[ni];

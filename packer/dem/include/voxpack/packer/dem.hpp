@@ -93,6 +93,13 @@ class DemContainer {
     out[0] = WallPatch{d, inwardNormal(p), wallRegion(p)};
     return 1;
   }
+  /// True when the wall is an upright round column on a flat floor, with its axis at
+  /// (cx, cy), radius r and floor at z = floorZ (mm): wallDistanceMm is then
+  /// min(r - rho, z - floorZ), and the DEM pre-tests wall nodes in float. Default: false.
+  virtual bool uprightColumn(double& cx, double& cy, double& r, double& floorZ) const {
+    (void)cx, (void)cy, (void)r, (void)floorZ;
+    return false;
+  }
   /// Lower corner (x, y, z) of the interior bounds (mm).
   virtual Vec3 minMm() const = 0;
   /// Upper corner (x, y, z) of the interior bounds (mm); z = nominal top.
