@@ -10,7 +10,9 @@
 #          adds pack options to both beds and RCP_TAG a suffix to their names, e.g.
 #          RCP_ARGS="--target-overlap 0.001" RCP_TAG=_t0001; RCP_CONTAINER replaces the
 #          container (a taller one for --rain-height 0, whose single cloud is ~130 mm).
-#          Every bed also gets its crystal-like fraction (bench/dem/crystal_order.py);
+#          RCP_RESTITUTION (default 0.5) sets e for rcp and rcp-continue (more dissipation
+#          quenches the pour faster). Every bed also gets its crystal-like fraction
+#          (bench/dem/crystal_order.py);
 #          KEEP_BEDS=1 keeps the bed files.
 # rcp-continue: continues a kept rcp bed, RCP_FROM=BED.h5 (--from: every sphere at rest at
 #          its pose, no contact springs), frictionless, e 0.5, with RCP_ARGS (e.g.
@@ -78,7 +80,7 @@ PY
 if [[ $which == rcp || $which == rcp-poured || $which == all ]]; then
   # 5000 spheres of 14.14 mm^3 at ~0.62 fill ~63 mm of a 48 mm column.
   common=(--shape sphere:d=3 --container "${RCP_CONTAINER:-cylinder:d=48,h=110}"
-    --voxel-size 0.3 --count 5000 --friction 0 --restitution 0.5 --max-time 8)
+    --voxel-size 0.3 --count 5000 --friction 0 --restitution "${RCP_RESTITUTION:-0.5}" --max-time 8)
   read -r -a extra <<<"${RCP_ARGS:-}"
   run "rcp_poured${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}"
   [[ $which == rcp-poured ]] || run "rcp_tapped${RCP_TAG:-}" 3 "${common[@]}" "${extra[@]}" --tap-cycles 5
@@ -87,7 +89,7 @@ if [[ $which == rcp-continue ]]; then
   read -r -a extra <<<"${RCP_ARGS:-}"
   keep=${KEEP_BEDS:-}
   KEEP_BEDS=1 run "rcp_continued${RCP_TAG:-}" 3 --from "${RCP_FROM:?RCP_FROM=BED.h5}" \
-    --friction 0 --restitution 0.5 --max-time 8 "${extra[@]}"
+    --friction 0 --restitution "${RCP_RESTITUTION:-0.5}" --max-time 8 "${extra[@]}"
   name="rcp_continued${RCP_TAG:-}"
   /usr/bin/python3 "$here/bulk_exact.py" "$out/$name.h5" 3 >"$out/$name.exact.json"
   /usr/bin/python3 - "$out/$name.json" "$out/$name.exact.json" <<'PY'
