@@ -249,7 +249,7 @@ struct DemSystem::Impl {
                 const Vec3& xiOld, ContactOut& out) const;
   void rolling(const Vec3& n, const Vec3& cp, double fnMag, const Body& a, const Body& b,
                const ContactLaw& law, ContactOut& out) const;
-  // narrow_phase.cpp. nodeHit is forced inline into its loops: as a call with ten arguments
+  // narrow_phase.cpp. nodeHit is forced inline at its call sites: as a call with ten arguments
   // it cost ~5 % of a pour (docs/dem.md, 2026-12-08).
   [[gnu::always_inline]] inline Hit nodeHit(const ParticleTemplate& ta, const ParticleTemplate& tb,
                                             std::uint32_t ni, const Vec3& nShape, double s,
