@@ -97,28 +97,19 @@ void DemSystem::Impl::listedNodes(std::size_t a, std::size_t b, const Eigen::Mat
     // without the filter: the same bits.
     const double extent = ta.radiusMm + off.norm();
     const NodeFilter nf = insideCylinderFilter(m, off, extent, form.r, form.hl);
-    const NodeCoords& nc = nodeCoords[tid[a]];
-    constexpr std::size_t kChunk = 64;  // a multiple of 8: the filter stores whole batches
-    std::uint32_t kept[kChunk];
-    for (std::size_t c0 = 0; c0 < list.size(); c0 += kChunk) {
-      const std::size_t c1 = std::min(list.size(), c0 + kChunk);
-      const std::size_t nk = filterNodes(nf, nc, list.data() + c0, c1 - c0, kept, avx2);
-      for (std::size_t kk = 0; kk < nk; ++kk) {
-        const std::uint32_t ni = kept[kk];
-        const Vec3 pb = m * ta.nodeP[ni] + off;
-        const double dz = std::abs(pb.z()) - form.hl;
-        if (dz >= 0) continue;
-        const double rho = std::sqrt(pb.x() * pb.x() + pb.y() * pb.y());
-        const double dr = rho - form.r;
-        if (dr >= 0) continue;
-        // The shape's normal inside (FastSdfShape::normal, its bits): the nearer face.
-        const Vec3 nShape = dr > dz
-                                ? (rho > 0 ? Vec3(pb.x() / rho, pb.y() / rho, 0) : Vec3(1, 0, 0))
-                                : Vec3(0, 0, pb.z() >= 0 ? 1 : -1);
-        const Hit h = nodeHit(ta, tb, ni, nShape, std::max(dr, dz), x[a], ra, rbS, factor, sign);
-        if (h.kw > 0) hits.push_back(h);
-      }
-    }
+    forEachKept(nf, nodeCoords[tid[a]], list, avx2, [&](std::uint32_t ni) {
+      const Vec3 pb = m * ta.nodeP[ni] + off;
+      const double dz = std::abs(pb.z()) - form.hl;
+      if (dz >= 0) return;
+      const double rho = std::sqrt(pb.x() * pb.x() + pb.y() * pb.y());
+      const double dr = rho - form.r;
+      if (dr >= 0) return;
+      // The shape's normal inside (FastSdfShape::normal, its bits): the nearer face.
+      const Vec3 nShape = dr > dz ? (rho > 0 ? Vec3(pb.x() / rho, pb.y() / rho, 0) : Vec3(1, 0, 0))
+                                  : Vec3(0, 0, pb.z() >= 0 ? 1 : -1);
+      const Hit h = nodeHit(ta, tb, ni, nShape, std::max(dr, dz), x[a], ra, rbS, factor, sign);
+      if (h.kw > 0) hits.push_back(h);
+    });
     return;
   }
   for (const std::uint32_t ni : list) {

@@ -108,24 +108,30 @@ NodeCoords nodeCoordsOf(const std::vector<Vec3>& nodes) {
   return nc;
 }
 
-NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r,
-                                double hl) {
+namespace {
+
+// A filter with the pose p = m node + off in float and no bounds yet.
+NodeFilter withPose(const Eigen::Matrix3d& m, const Vec3& off) {
   NodeFilter f;
   for (int i = 0; i < 3; ++i) {
     for (int c = 0; c < 3; ++c) f.m[3 * i + c] = static_cast<float>(m(i, c));
     f.off[i] = static_cast<float>(off[i]);
   }
+  return f;
+}
+
+}  // namespace
+
+NodeFilter insideCylinderFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r,
+                                double hl) {
+  NodeFilter f = withPose(m, off);
   f.z = static_cast<float>(hl + kFilterMargin * extent);
   f.r2 = static_cast<float>(r * r + kFilterMargin * extent * extent);
   return f;
 }
 
 NodeFilter outsideColumnFilter(const Eigen::Matrix3d& m, const Vec3& off, double extent, double r) {
-  NodeFilter f;
-  for (int i = 0; i < 3; ++i) {
-    for (int c = 0; c < 3; ++c) f.m[3 * i + c] = static_cast<float>(m(i, c));
-    f.off[i] = static_cast<float>(off[i]);
-  }
+  NodeFilter f = withPose(m, off);
   f.z = static_cast<float>(kFilterMargin * extent);
   f.r2 = static_cast<float>(r * r - kFilterMargin * extent * extent);
   f.outside = true;

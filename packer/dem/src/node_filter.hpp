@@ -4,6 +4,7 @@
 // margins make it keep a superset of the nodes the exact double test accepts, so that test, run on
 // the kept nodes in list order, gives the same bits as without the filter (docs/dem.md, "The
 // listed-node filter").
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -42,5 +43,19 @@ NodeFilter outsideColumnFilter(const Eigen::Matrix3d& m, const Vec3& off, double
 /// batches). `avx2`: 8 nodes per instruction (the same float arithmetic, so the same nodes).
 std::size_t filterNodes(const NodeFilter& f, const NodeCoords& nc, const std::uint32_t* idx,
                         std::size_t n, std::uint32_t* kept, bool avx2);
+
+/// Calls fn(ni) for each node of `list` the filter keeps, in list order (the pair and the
+/// wall loops share it; chunks of 64, a multiple of 8, as filterNodes stores whole batches).
+template <class Fn>
+void forEachKept(const NodeFilter& f, const NodeCoords& nc, const std::vector<std::uint32_t>& list,
+                 bool avx2, Fn&& fn) {
+  constexpr std::size_t kChunk = 64;
+  std::uint32_t kept[kChunk];
+  for (std::size_t c0 = 0; c0 < list.size(); c0 += kChunk) {
+    const std::size_t n = std::min(list.size() - c0, kChunk);
+    const std::size_t nk = filterNodes(f, nc, list.data() + c0, n, kept, avx2);
+    for (std::size_t k = 0; k < nk; ++k) fn(kept[k]);
+  }
+}
 
 }  // namespace voxpack::packer::dem

@@ -92,18 +92,11 @@ void DemSystem::Impl::wallForces(std::size_t i, double zw, double vw,
       evals += wl.nodes.size();
       const Vec3 off = x[i] - Vec3(column.cx, column.cy, column.floorZ + zw);
       const NodeFilter nf = outsideColumnFilter(r, off, tp.radiusMm + off.norm(), column.r);
-      const NodeCoords& nc = nodeCoords[tid[i]];
-      constexpr std::size_t kChunk = 64;  // a multiple of 8: the filter stores whole batches
-      std::uint32_t kept[kChunk];
-      for (std::size_t c0 = 0; c0 < wl.nodes.size(); c0 += kChunk) {
-        const std::size_t c1 = std::min(wl.nodes.size(), c0 + kChunk);
-        const std::size_t nk = filterNodes(nf, nc, wl.nodes.data() + c0, c1 - c0, kept, avx2);
-        for (std::size_t kk = 0; kk < nk; ++kk) {
-          const Vec3 p = x[i] + r * tp.nodeP[kept[kk]];
-          const double s = container->wallDistanceMm(p - wallShift);
-          if (s < 0) probe(kept[kk], p, s);
-        }
-      }
+      forEachKept(nf, nodeCoords[tid[i]], wl.nodes, avx2, [&](std::uint32_t ni) {
+        const Vec3 p = x[i] + r * tp.nodeP[ni];
+        const double s = container->wallDistanceMm(p - wallShift);
+        if (s < 0) probe(ni, p, s);
+      });
     } else if (fresh) {
       evals += wl.nodes.size();
       for (const std::uint32_t ni : wl.nodes) {
